@@ -1,0 +1,1 @@
+"""The thesis's measured data, shipped inside the wheel as ``fitdf._bundled``."""

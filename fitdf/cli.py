@@ -1,0 +1,257 @@
+"""The ``fitdf`` command line: a thin layer that parses options and calls the library.
+
+Every user mistake (unknown core, missing file, bad CSV, unknown model, impossible
+option combination) is one line on stderr and exit code 2; an internal failure says so
+and where to look (``--debug`` shows the traceback).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import traceback
+
+from . import __version__
+from .errors import FitdfError
+
+EXIT_USAGE = 2
+EXIT_INTERNAL = 1
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit code 2)."""
+
+    def error(self, message):
+        raise _UsageError(f"{self.prog}: {message}")
+
+
+class _UsageError(Exception):
+    pass
+
+
+def _emit_json(obj):
+    json.dump(obj, sys.stdout, indent=2, default=_json_default, allow_nan=False)
+    sys.stdout.write("\n")
+
+
+def _json_default(o):
+    import numpy as np
+
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def _clean(records):
+    """NaN/inf -> None so the JSON is strict."""
+    import math
+
+    if isinstance(records, dict):
+        return {k: _clean(v) for k, v in records.items()}
+    if isinstance(records, list):
+        return [_clean(v) for v in records]
+    if isinstance(records, float) and not math.isfinite(records):
+        return None
+    return records
+
+
+# ------------------------------------------------------------------ commands
+def cmd_datasets(args):
+    from . import datasets
+
+    table = datasets.summary()
+    if args.json:
+        _emit_json({"datasets": datasets.names(), "appendix_b": _clean(table.to_dict(orient="records"))})
+        return 0
+    print("Bundled datasets: " + ", ".join(datasets.names()))
+    print("\nAppendix B rows per table and frequency:")
+    print(table.to_string(index=False))
+    return 0
+
+
+def cmd_audit(args):
+    from . import audit, datasets
+
+    frame = audit.audit(datasets.load(args.data))
+    flagged = frame[frame["flag"] != "ok"]
+    factors = audit.block_factors(frame) if "h1_output_v" in frame else None
+    if args.json:
+        _emit_json(_clean({"rows": len(frame), "flagged": flagged.to_dict(orient="records"),
+                           "block_factors": None if factors is None else factors.to_dict(orient="records"),
+                           "findings": audit.findings(frame)}))
+        return 0
+    cols = [c for c in ("table", "frequency_hz", "row_in_block", "input_v", "h1_output_v", "phase_lead_deg",
+                        "df_reported", "flag", "exclude_default", "reasons") if c in frame]
+    print(f"{len(frame)} rows, {len(flagged)} flagged, {int(frame['exclude_default'].sum())} excluded by default\n")
+    if factors is not None:
+        print("DF factor per block (printed vs followed by the data):")
+        print(factors.to_string(index=False), "\n")
+    if not flagged.empty:
+        import pandas as pd
+
+        with pd.option_context("display.max_colwidth", 200, "display.width", 250):
+            print(flagged[cols].to_string(index=False))
+    for line in audit.findings(frame):
+        print("- " + line)
+    return 0
+
+
+def cmd_models(args):
+    from .chain import CHAINS
+    from .models import MODELS, model_names
+
+    model_names()
+    if args.json:
+        _emit_json({"models": [m.describe() for m in MODELS.values()],
+                    "chains": [{"name": c.name, "title": c.title,
+                                "parameters": [p.name for p in c.params]} for c in CHAINS.values()]})
+        return 0
+    for m in MODELS.values():
+        print(f"{m.name}: {m.title} ({m.equations})" + ("  [N depends on frequency]" if m.frequency_dependent else ""))
+        for p in m.params:
+            print(f"    {p.name:<11s} {p.unit:<8s} bounds [{p.bounds[0]:g}, {p.bounds[1]:g}]  {p.description}"
+                  + (f" ({p.equation})" if p.equation else ""))
+    print("\nMeasurement chains:")
+    for c in CHAINS.values():
+        print(f"{c.name}: {c.title}; parameters: {', '.join(p.name for p in c.params) or 'none'}")
+    return 0
+
+
+def _ranking_text(table):
+    cols = ["rank", "model", "chain", "method", "n_params", "rms_complex", "rms_magnitude", "rms_phase_deg",
+            "redchi", "aicc", "bic", "looic", "cv_rms_complex", "indistinguishable_from"]
+    show = table[[c for c in cols if c in table and not table[c].isna().all()]]
+    return show.to_string(index=False, float_format=lambda v: f"{v:.4g}")
+
+
+def cmd_fit(args):
+    from .compare import compare
+    from .models import model_names
+
+    models = args.models or model_names()
+    methods = {"lsq": 1, "mcmc": 1, "both": 2}[args.method]
+    progress = None
+    if not args.quiet and not args.json:
+        from tqdm.auto import tqdm
+
+        progress = tqdm(total=len(models) * len(args.chain) * methods, desc="fitting", file=sys.stderr,
+                        disable=None)
+    try:
+        table = compare(args.data, models=models, chains=tuple(args.chain), method=args.method, seed=args.seed,
+                        rank_by=args.rank_by, cross_validation=not args.no_cv, progress=progress,
+                        source_impedance=args.source_impedance, policy=args.policy, n_steps=args.steps)
+    finally:
+        if progress is not None:
+            progress.close()
+    results = table.attrs.pop("results")
+    best = next(r for r in results if (r.model, r.chain, r.method) == tuple(table.iloc[0][["model", "chain", "method"]]))
+    if args.json:
+        _emit_json(_clean({"data": str(args.data), "seed": args.seed, "rank_by": args.rank_by,
+                           "ranking": table.to_dict(orient="records"),
+                           "fits": [r.to_dict() for r in results]}))
+        return 0
+    print(f"Ranking on {results[0].label} ({results[0].metrics['n_points']} rows, seed {args.seed}), "
+          f"ordered by {args.rank_by}:")
+    print(_ranking_text(table))
+    print("\nBest model:")
+    print(best.summary())
+    for r in results:
+        if r.method == "mcmc":
+            d = r.diagnostics
+            print(f"MCMC {r.model}: {'converged' if d['converged'] else 'NOT converged'} "
+                  f"(steps/tau {d['steps_over_tau']:.0f}, max R-hat {max(d['rhat'].values()):.3f}, "
+                  f"min ESS {min(d['ess_bulk'].values()):.0f}, acceptance {d['acceptance_mean']:.2f})")
+    return 0
+
+
+# ------------------------------------------------------------------ parser
+def build_parser() -> argparse.ArgumentParser:
+    from .compare import RANK_COLUMNS
+
+    p = _Parser(prog="fitdf", description="Fit, rank and use describing-function models of hysteretic elements.",
+                formatter_class=argparse.RawDescriptionHelpFormatter,
+                epilog="examples:\n  fitdf datasets\n  fitdf audit B.1\n  fitdf fit permalloy --method both\n"
+                       "  fitdf report")
+    p.add_argument("--version", action="version", version=f"fitdf {__version__}")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    def add(name, func, help, examples):
+        sp = sub.add_parser(name, help=help, description=help, formatter_class=argparse.RawDescriptionHelpFormatter,
+                            epilog="examples:\n" + "\n".join(f"  {e}" for e in examples))
+        sp.set_defaults(func=func)
+        sp.add_argument("--json", action="store_true", help="print JSON on stdout instead of text")
+        sp.add_argument("--quiet", action="store_true", help="no progress bars")
+        return sp
+
+    add("datasets", cmd_datasets, "list the bundled datasets with row counts per frequency",
+        ["fitdf datasets", "fitdf datasets --json"])
+    sp = add("audit", cmd_audit, "audit the printed tables row by row and show the flagged rows",
+             ["fitdf audit", "fitdf audit B.1", "fitdf audit my_core.csv --json"])
+    sp.add_argument("data", nargs="?", default="appendix_b", help="dataset, core or CSV path (default: all of Appendix B)")
+    add("models", cmd_models, "list the candidate models with their parameters and equations",
+        ["fitdf models", "fitdf models --json"])
+    sp = add("fit", cmd_fit, "fit every model to a core and print the ranking",
+             ["fitdf fit permalloy", "fitdf fit B.3 --method both --steps 2000",
+              "fitdf fit deltamax --source-impedance 600 --models constant_width rayleigh --json"])
+    sp.add_argument("data", help="core name (permalloy, deltamax, supermalloy), table (B.1..B.5) or CSV path")
+    sp.add_argument("--method", choices=["lsq", "mcmc", "both"], default="lsq")
+    sp.add_argument("--models", nargs="+", metavar="MODEL", help="models to fit (default: all)")
+    sp.add_argument("--chain", nargs="+", default=["winding"], choices=["winding", "direct"],
+                    help="measurement chain(s) (default: winding)")
+    sp.add_argument("--source-impedance", type=float, default=None, metavar="OHM",
+                    help="only rows at this source impedance (default: all, fitted jointly)")
+    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--steps", type=int, default=1500, help="MCMC steps per walker")
+    sp.add_argument("--rank-by", default="rms_complex", choices=list(RANK_COLUMNS))
+    sp.add_argument("--policy", default="default", choices=["default", "all", "strict"],
+                    help="which audited rows to use (datasets/README.md)")
+    sp.add_argument("--no-cv", action="store_true", help="skip the leave-one-frequency-out cross-validation")
+    return p
+
+
+def _validate(args):
+    from .errors import OptionError
+    from .models import model_names
+
+    if getattr(args, "models", None):
+        unknown = [m for m in args.models if m not in model_names()]
+        if unknown:
+            raise OptionError(f"unknown model(s) {', '.join(unknown)}; known: {', '.join(model_names())}")
+    if getattr(args, "steps", 1) is not None and getattr(args, "steps", 1) < 50:
+        raise OptionError("--steps must be at least 50")
+    if getattr(args, "rank_by", None) in ("looic", "waic") and getattr(args, "method", "mcmc") == "lsq":
+        raise OptionError(f"--rank-by {args.rank_by} needs --method mcmc or both")
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except _UsageError as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_USAGE
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return EXIT_USAGE
+    try:
+        _validate(args)
+        return args.func(args)
+    except FitdfError as exc:
+        print(f"fitdf {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("fitdf: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # an internal failure, not the user's
+        if args.debug:
+            traceback.print_exc()
+        print(f"fitdf {args.command}: internal error: {type(exc).__name__}: {exc} "
+              "(rerun with --debug for the traceback and report it)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

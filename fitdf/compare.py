@@ -1,0 +1,164 @@
+"""Ranking models against each other, cross-validation, and prediction across source impedance.
+
+Ranking
+    One row per (model, chain, method) fitted to the same rows: parameter count, RMS
+    complex / magnitude / phase residuals, reduced chi-square, AICc, BIC (see
+    :mod:`fitdf.metrics`), PSIS-LOO and WAIC for MCMC fits, and a cross-validated RMS
+    complex residual (leave one frequency out, fit the rest by least squares, predict
+    it). Default order: RMS complex residual. Two models are called *indistinguishable*
+    when their AICc differ by less than 2 (least squares) or their LOO-IC difference is
+    smaller than twice its standard error (MCMC).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .errors import OptionError
+from .fitting import fit, resolve_data
+from .likelihood import FitProblem
+from .lsq import fit_lsq
+from .metrics import residual_metrics
+from .models import model_names
+
+__all__ = ["compare", "fit_all", "ranking_table", "cross_validate", "cross_impedance", "RANK_COLUMNS"]
+
+#: Columns a ranking can be ordered by, and whether larger is better.
+RANK_COLUMNS = {"rms_complex": False, "rms_magnitude": False, "rms_phase_deg": False, "redchi": False,
+                "aicc": False, "bic": False, "looic": False, "waic": False, "cv_rms_complex": False,
+                "n_params": False}
+
+
+def fit_all(data, models=None, chains=("winding",), methods=("lsq",), seed=0, progress=None, **kw) -> list:
+    """Fit every model x chain x method on the same rows; returns the results in that order."""
+    models = list(models or model_names())
+    fd = resolve_data(data, kw.pop("policy", "default"), kw.pop("source_impedance", None))
+    out = []
+    for model in models:
+        for chain in chains:
+            for method in methods:
+                out.append(fit(fd, model, chain=chain, method=method, seed=seed, **kw))
+                if progress is not None:
+                    progress.update(1)
+    return out
+
+
+def cross_validate(result, seed=0, n_starts=3) -> dict:
+    """Leave one frequency (per source impedance) out: fit the rest, predict the held-out rows."""
+    problem = result.problem
+    d = problem.data
+    keys = list(dict.fromkeys(zip(d.source_impedance.tolist(), d.frequency.tolist())))
+    if len(keys) < 2:
+        return {"cv_rms_complex": float("nan"), "cv_folds": 0}
+    errors, per_fold = [], []
+    for rs, f in keys:
+        held = (d.source_impedance == rs) & (d.frequency == f)
+        train = FitProblem(d.subset(~held), problem.model, problem.chain, problem.noise, problem.fixed)
+        if train.data.n <= train.ndim:
+            continue
+        r = fit_lsq(train, seed=seed, n_starts=n_starts)
+        held_rows = d.subset(held)
+        pred = r.predict(held_rows.amplitude, held_rows.frequency, held_rows.source_impedance,
+                         table=held_rows.group[0] if held_rows.group[0] in train.data.groups else None)
+        errors.append(np.abs(pred - held_rows.measured))
+        per_fold.append({"source_impedance_ohm": rs, "frequency_hz": f,
+                         **residual_metrics(pred, held_rows.measured)})
+    allerr = np.concatenate(errors) if errors else np.array([np.nan])
+    return {"cv_rms_complex": float(np.sqrt(np.mean(allerr**2))), "cv_folds": len(per_fold), "cv_per_fold": per_fold}
+
+
+def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None) -> pd.DataFrame:
+    """The ranking of fitted results (all fitted to the same rows)."""
+    if rank_by not in RANK_COLUMNS:
+        raise OptionError(f"cannot rank by {rank_by!r}; choose one of {', '.join(RANK_COLUMNS)}")
+    rows = []
+    for i, r in enumerate(results):
+        m = r.metrics
+        row = {"model": r.model, "chain": r.chain, "method": r.method, "n_params": m["n_params"],
+               "n_points": m["n_points"], "rms_complex": m["rms_complex"], "rms_magnitude": m["rms_magnitude"],
+               "rms_phase_deg": m["rms_phase_deg"], "redchi": m["redchi"], "aicc": m["aicc"], "bic": m["bic"],
+               "looic": m.get("looic", np.nan), "looic_se": m.get("looic_se", np.nan),
+               "waic": m.get("waic", np.nan), "cv_rms_complex": np.nan, "warnings": len(r.warnings)}
+        if cv is not None and i in cv:
+            row["cv_rms_complex"] = cv[i]["cv_rms_complex"]
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    table["delta_aicc"] = table["aicc"] - table["aicc"].min()
+    weights = np.exp(-0.5 * table["delta_aicc"])
+    table["aicc_weight"] = weights / weights.sum()
+    table["indistinguishable_from"] = _ties(results, table)
+    if rank_by in ("looic", "waic") and table[rank_by].isna().all():
+        raise OptionError(f"--rank-by {rank_by} needs MCMC fits (use --method mcmc or both)")
+    table = table.sort_values([rank_by, "aicc"], kind="stable", na_position="last").reset_index(drop=True)
+    table.insert(0, "rank", np.arange(1, len(table) + 1))
+    return table
+
+
+def _ties(results, table) -> list[str]:
+    """For each row, the other models it cannot be told apart from."""
+    out = []
+    for i, r in enumerate(results):
+        ties = []
+        for j, s in enumerate(results):
+            if i == j or r.method != s.method:
+                continue
+            if r.method == "mcmc":
+                a = np.asarray(r.diagnostics.get("pointwise_elpd_loo", []))
+                b = np.asarray(s.diagnostics.get("pointwise_elpd_loo", []))
+                if a.size and a.size == b.size:
+                    diff = a - b
+                    se = np.sqrt(a.size * np.var(diff))
+                    if abs(diff.sum()) < 2 * se:
+                        ties.append(f"{s.model}/{s.chain}")
+            elif abs(table.loc[i, "aicc"] - table.loc[j, "aicc"]) < 2:
+                ties.append(f"{s.model}/{s.chain}")
+        out.append(", ".join(ties))
+    return out
+
+
+def compare(data, models=None, chains=("winding",), method="lsq", seed=0, rank_by="rms_complex",
+            cross_validation=True, progress=None, **kw) -> pd.DataFrame:
+    """Fit every model and return the ranking as a DataFrame (see the module docstring).
+
+    ``method`` is "lsq", "mcmc" or "both". The fitted results are kept in
+    ``table.attrs["results"]``.
+    """
+    methods = {"lsq": ("lsq",), "mcmc": ("mcmc",), "both": ("lsq", "mcmc")}.get(method)
+    if methods is None:
+        raise OptionError(f"unknown method {method!r}; choose lsq, mcmc or both")
+    results = fit_all(data, models, chains, methods, seed=seed, progress=progress, **kw)
+    cv = {i: cross_validate(r, seed=seed) for i, r in enumerate(results) if r.method == "lsq"} \
+        if cross_validation else None
+    table = ranking_table(results, rank_by, cv)
+    table.attrs["results"] = results
+    return table
+
+
+def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=600.0, seed=0,
+                    policy="default", n_starts=6) -> pd.DataFrame:
+    """Fit a core at one source impedance and predict its data at the other.
+
+    Everything that describes the core (the law's parameters and the winding
+    resistance) comes from the training fit. The tables define their DF with different
+    calibration factors (see the audit), so the target table's calibration ``gain`` --
+    and only that -- is fitted on the target rows; chains without a gain predict as is.
+    """
+    train = resolve_data(core, policy, train_ohm)
+    test = resolve_data(core, policy, test_ohm)
+    rows = []
+    for model in list(models or model_names()):
+        fitted = fit(train, model, chain=chain, seed=seed, n_starts=n_starts)
+        fixed = {k: v for k, v in fitted.values.items() if not k.startswith("gain")}
+        target = FitProblem(test, model, chain, fitted.problem.noise, fixed=fixed)
+        if target.ndim:
+            calibrated = fit_lsq(target, seed=seed, n_starts=2)
+            pred = target.predict(calibrated.internal)
+            gain = {k: v for k, v in calibrated.values.items() if k.startswith("gain")}
+        else:
+            pred = target.predict(np.zeros(0))
+            gain = {}
+        rows.append({"core": str(core), "model": model, "chain": chain, "train_ohm": train_ohm,
+                     "test_ohm": test_ohm, "train_rms_complex": fitted.metrics["rms_complex"],
+                     **{f"predict_{k}": v for k, v in residual_metrics(pred, test.measured).items()},
+                     "n_test": test.n, "calibration_gain": next(iter(gain.values()), np.nan)})
+    return pd.DataFrame(rows).sort_values("predict_rms_complex", kind="stable").reset_index(drop=True)

@@ -1,0 +1,85 @@
+"""The public fitting entry point: data + model + chain + method -> result."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from .errors import DataError, OptionError
+from .fitdata import FitData, NoiseModel
+from .likelihood import FitProblem
+from .lsq import fit_lsq
+from .mcmc import fit_mcmc
+
+__all__ = ["fit", "resolve_data", "METHODS"]
+
+METHODS = ("lsq", "mcmc")
+
+
+def resolve_data(data, policy: str = "default", source_impedance=None, label: str | None = None) -> FitData:
+    """Rows to fit from a dataset name, core name, CSV path, DataFrame or FitData.
+
+    The audit's row ``policy`` ("default", "all" or "strict", see datasets/README.md)
+    decides which printed rows are used; ``source_impedance`` (ohm) keeps only those rows.
+    """
+    from . import audit, datasets
+
+    if isinstance(data, FitData):
+        return data
+    if isinstance(data, (str, Path)):
+        frame = datasets.load(data)
+        label = label or (Path(data).name if Path(str(data)).suffix else str(data))
+    elif isinstance(data, pd.DataFrame):
+        frame = data
+        label = label or "data"
+    else:
+        raise OptionError(f"cannot fit data of type {type(data).__name__}; give a dataset name, path or DataFrame")
+    if source_impedance is not None:
+        if "source_impedance_ohm" not in frame:
+            raise OptionError("--source-impedance given but the data have no source_impedance_ohm column")
+        available = sorted(frame["source_impedance_ohm"].unique().tolist())
+        frame = frame[frame["source_impedance_ohm"] == float(source_impedance)]
+        if frame.empty:
+            raise OptionError(f"{label}: no rows at source impedance {source_impedance:g} ohm "
+                              f"(available: {', '.join(f'{a:g}' for a in available)})")
+        label = f"{label} @ {float(source_impedance):g} ohm"
+    selected = audit.select_rows(audit.audit(frame), policy)
+    if selected.empty:
+        raise DataError(f"{label}: no rows left after the '{policy}' row policy")
+    return FitData.from_frame(selected, label)
+
+
+def fit(data, model, chain: str = "winding", method: str = "lsq", seed: int = 0, policy: str = "default",
+        source_impedance=None, noise: NoiseModel | None = None, fixed: dict | None = None,
+        n_starts: int = 6, n_steps: int = 1500, n_walkers: int | None = None, progress: bool = False):
+    """Fit one model seen through one measurement chain.
+
+    Parameters
+    ----------
+    data : str, path, DataFrame or FitData
+        A bundled dataset ("B.3"), a core ("permalloy"), a CSV in the Appendix B schema.
+    model : str
+        A name from :func:`fitdf.models.model_names`.
+    chain : {"winding", "direct"}
+    method : {"lsq", "mcmc"}
+        "mcmc" runs least squares first and starts the walkers there.
+    seed : int
+        Makes the multi-start and the chain reproducible.
+
+    Returns
+    -------
+    FitResult or PosteriorResult
+
+    Examples
+    --------
+    >>> import fitdf
+    >>> r = fitdf.fit("B.3", "proportional_width", seed=1)   # doctest: +SKIP
+    >>> r.metrics["rms_complex"]                              # doctest: +SKIP
+    """
+    if method not in METHODS:
+        raise OptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    problem = FitProblem(resolve_data(data, policy, source_impedance), model, chain, noise, fixed)
+    result = fit_lsq(problem, seed=seed, n_starts=n_starts)
+    if method == "lsq":
+        return result
+    return fit_mcmc(problem, result, seed=seed, n_steps=n_steps, n_walkers=n_walkers, progress=progress)

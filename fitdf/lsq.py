@@ -1,0 +1,124 @@
+"""Least squares: a batched quasi-random screen of the parameter box, then lmfit polishes.
+
+The answer must not depend on luck: ``n_screen`` Sobol points (plus the declared
+starting guess) are evaluated in *one* batched call, the ``n_starts`` best are polished
+with lmfit's trust-region least squares, and the result reports which start won and how
+many polished starts agree with it (chi-square within 1 of the best).
+"""
+from __future__ import annotations
+
+import warnings
+
+import lmfit
+import numpy as np
+import pandas as pd
+from scipy.stats import qmc
+
+from .likelihood import FitProblem
+from .metrics import information_criteria, residual_metrics
+from .results import FitResult, residual_table
+
+__all__ = ["fit_lsq"]
+
+_Z95 = 1.959963984540054
+
+
+def _screen(problem: FitProblem, rng, n_screen: int, n_starts: int):
+    lo, hi = problem.internal_bounds().T
+    sob = qmc.Sobol(problem.ndim, scramble=True, seed=rng).random(n_screen)
+    points = np.vstack([problem.start_internal(), lo + sob * (hi - lo)])
+    with np.errstate(all="ignore"):
+        cost = np.sum(problem.weighted_residuals(points) ** 2, axis=-1)
+    cost = np.where(np.isfinite(cost), cost, np.inf)
+    return points[np.argsort(cost, kind="stable")[:n_starts]]
+
+
+def _polish(problem: FitProblem, start, max_nfev: int):
+    lo, hi = problem.internal_bounds().T
+    params = lmfit.Parameters()
+    for i, v in enumerate(start):
+        params.add(f"p{i}", value=float(np.clip(v, lo[i], hi[i])), min=lo[i], max=hi[i])
+
+    def residual(p):
+        x = np.array([p[f"p{i}"].value for i in range(problem.ndim)])
+        r = problem.weighted_residuals(x)
+        return np.where(np.isfinite(r), r, 1e6)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # lmfit/scipy numerical chatter; outcome is checked below
+        out = lmfit.minimize(residual, params, method="least_squares", max_nfev=max_nfev)
+    x = np.array([out.params[f"p{i}"].value for i in range(problem.ndim)])
+    return out, x
+
+
+def _uncertainties(problem: FitProblem, x, covar):
+    names = problem.names
+    stderr, intervals = {}, {}
+    sig = np.sqrt(np.clip(np.diag(covar), 0, None)) if covar is not None else np.full(len(x), np.nan)
+    for i, s in enumerate(problem.specs):
+        value = float(s.from_internal(x[i]))
+        stderr[s.name] = float(np.log(10) * value * sig[i]) if s.log else float(sig[i])
+        q = {"p2.5": x[i] - _Z95 * sig[i], "p16": x[i] - sig[i], "p50": x[i],
+             "p84": x[i] + sig[i], "p97.5": x[i] + _Z95 * sig[i]}
+        intervals[s.name] = {k: float(s.from_internal(v)) for k, v in q.items()}
+    if covar is not None:
+        d = np.where(sig > 0, sig, np.nan)
+        corr = covar / np.outer(d, d)
+    else:
+        corr = np.full((len(x), len(x)), np.nan)
+    return stderr, intervals, pd.DataFrame(corr, index=names, columns=names)
+
+
+def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
+    out = []
+    for i, s in enumerate(problem.specs):
+        lo, hi = s.internal_bounds
+        tol = rel * (hi - lo)
+        if x[i] - lo < tol:
+            out.append(f"parameter {s.name} sits on its lower bound {s.bounds[0]:g} {s.unit}".rstrip())
+        elif hi - x[i] < tol:
+            out.append(f"parameter {s.name} sits on its upper bound {s.bounds[1]:g} {s.unit}".rstrip())
+    return out
+
+
+def fit_lsq(problem: FitProblem, seed: int = 0, n_starts: int = 6, n_screen: int = 256,
+            max_nfev: int = 400) -> FitResult:
+    """Least-squares fit of ``problem`` (see the module docstring for the strategy).
+
+    Returns
+    -------
+    FitResult
+        ``info`` holds ``starts`` (cost of every polished start), ``best_start``,
+        ``n_agree`` and the settings.
+    """
+    rng = np.random.default_rng(seed)
+    starts = _screen(problem, rng, n_screen, n_starts)
+    polished = [_polish(problem, s, max_nfev) for s in starts]
+    costs = np.array([np.sum(problem.weighted_residuals(x) ** 2) for _, x in polished])
+    best = int(np.argmin(costs))
+    out, x = polished[best]
+    n_agree = int(np.sum(costs - costs[best] <= 1.0))
+
+    covar = getattr(out, "covar", None)
+    stderr, intervals, corr = _uncertainties(problem, x, covar)
+    values = {k: float(v) for k, v in problem.full_natural(x).items()}
+    predicted = problem.predict(x)
+    wres = problem.weighted_residuals(x)
+    metrics = {"n_points": problem.data.n, "n_params": problem.ndim,
+               **residual_metrics(predicted, problem.data.measured),
+               **information_criteria(wres, problem.ndim)}
+    warns = bound_warnings(problem, x)
+    if covar is None:
+        warns.append("covariance matrix not available (singular Jacobian): uncertainties are NaN")
+    if not out.success:
+        warns.append(f"least squares did not converge: {out.message}")
+    if n_agree < 2 and len(starts) > 1:
+        warns.append(f"only the winning start reached the best chi-square (of {len(starts)} starts)")
+    info = {"seed": seed, "n_screen": n_screen, "n_starts": len(starts), "starts_chi2": costs.tolist(),
+            "best_start": best, "n_agree": n_agree, "nfev": int(out.nfev), "success": bool(out.success),
+            "noise": problem.noise.to_dict(), "fixed": dict(problem.fixed),
+            "covar_internal": None if covar is None else np.asarray(covar).tolist()}
+    return FitResult(model=problem.model.name, chain=problem.chain.name, method="lsq", label=problem.data.label,
+                     values=values, stderr=stderr, intervals=intervals, correlations=corr, metrics=metrics,
+                     residuals=residual_table(problem, predicted), warnings=warns, info=info,
+                     problem=problem, internal=x)

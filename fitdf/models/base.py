@@ -1,0 +1,90 @@
+"""The interface every hysteresis law implements.
+
+A model is a class with declarative :class:`~fitdf.params.ParamSpec` s and two pure,
+vectorised class methods:
+
+* :meth:`HysteresisModel.ascending_branch` -- the steady-state loop itself (used by the
+  numerical referee in :mod:`fitdf.loops` and by time-domain simulation);
+* :meth:`HysteresisModel.describing_function` -- the closed form ``N(A, f)``; laws
+  without one fall back to the numerical engine.
+
+Models know nothing of data, chains or fitting. Units follow the winding chain: input
+``x`` is the winding current (A) and output the flux linkage (V s), so ``N`` is an
+amplitude-dependent complex inductance (H). Any other consistent units work too.
+"""
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from ..loops import numerical_describing_function
+from ..params import ParamSpec, split_theta
+
+__all__ = ["HysteresisModel"]
+
+
+class HysteresisModel:
+    """Base class of the describing-function models (one subclass per law)."""
+
+    #: Public name used by the registry, CLI and reports.
+    name: ClassVar[str] = ""
+    #: One-line human title.
+    title: ClassVar[str] = ""
+    #: Thesis equations the law and its describing function come from.
+    equations: ClassVar[str] = ""
+    #: Parameters in the order of the ``theta`` vector.
+    params: ClassVar[tuple[ParamSpec, ...]] = ()
+    #: True when ``N`` depends on frequency as well as amplitude.
+    frequency_dependent: ClassVar[bool] = False
+    #: True when :meth:`describing_function` is a closed form (else numerical).
+    closed_form: ClassVar[bool] = True
+
+    @classmethod
+    def ascending_branch(cls, x, amplitude, frequency=0.0, **theta):
+        """Output on the rising branch of the loop with peak input ``amplitude``."""
+        raise NotImplementedError
+
+    @classmethod
+    def describing_function(cls, amplitude, frequency=0.0, **theta):
+        """Complex describing function ``N(A, f)``; broadcasts over all arguments."""
+        return cls.numerical_describing_function(amplitude, frequency, **theta)
+
+    @classmethod
+    def numerical_describing_function(cls, amplitude, frequency=0.0, *, n_points=None, **theta):
+        """``N`` from the numerical Fourier integral of :meth:`ascending_branch`."""
+        kw = {} if n_points is None else {"n_points": n_points}
+        return numerical_describing_function(cls.ascending_branch, amplitude, frequency, **kw, **theta)
+
+    @classmethod
+    def param_names(cls) -> list[str]:
+        return [p.name for p in cls.params]
+
+    @classmethod
+    def defaults(cls) -> dict[str, float]:
+        return {p.name: p.default for p in cls.params}
+
+    @classmethod
+    def evaluate(cls, amplitude, frequency, theta):
+        """Batched ``N``: ``theta`` of shape ``(..., p)`` gives a result of shape ``(..., n)``.
+
+        ``amplitude`` and ``frequency`` are 1-D arrays of the ``n`` points.
+        """
+        return cls.describing_function(np.asarray(amplitude, float), np.asarray(frequency, float),
+                                       **split_theta(cls.params, theta))
+
+    @classmethod
+    def describe(cls) -> dict:
+        """Plain-dict description for listings and JSON."""
+        return {
+            "name": cls.name,
+            "title": cls.title,
+            "equations": cls.equations,
+            "frequency_dependent": cls.frequency_dependent,
+            "closed_form": cls.closed_form,
+            "parameters": [
+                {"name": p.name, "unit": p.unit, "default": p.default, "bounds": list(p.bounds),
+                 "description": p.description, "equation": p.equation, "log": p.log}
+                for p in cls.params
+            ],
+        }

@@ -1,0 +1,210 @@
+"""Fit results: immutable records with parameters, uncertainties, residuals and metrics.
+
+:class:`FitResult` comes from least squares, :class:`PosteriorResult` (a subclass) from
+MCMC; both answer the same questions (``values``, ``intervals``, ``metrics``,
+``residuals``, ``predict``, ``summary``, ``to_dict``), so reports and rankings treat
+them alike.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from .metrics import phase_difference_deg, residual_metrics
+
+__all__ = ["FitResult", "PosteriorResult", "residual_table"]
+
+
+def residual_table(problem, predicted) -> pd.DataFrame:
+    """Per-row measured vs predicted values and residuals."""
+    d = problem.data
+    keep = [c for c in ("table", "core", "row_in_block") if c in d.rows.columns]
+    out = d.rows[keep].copy() if keep else pd.DataFrame(index=d.rows.index)
+    out["source_impedance_ohm"] = d.source_impedance
+    out["frequency_hz"] = d.frequency
+    out["input_v"] = d.amplitude
+    out["df_measured"] = np.abs(d.measured)
+    out["phase_lead_measured_deg"] = d.rows["phase_lead_deg"].to_numpy(float)
+    out["df_predicted"] = np.abs(predicted)
+    out["phase_lead_predicted_deg"] = np.angle(predicted, deg=True)
+    out["magnitude_residual"] = out["df_predicted"] - out["df_measured"]
+    out["phase_residual_deg"] = np.where(np.abs(d.measured) > 0,
+                                         phase_difference_deg(predicted, d.measured), np.nan)
+    out["complex_residual"] = np.abs(predicted - d.measured)
+    return out.reset_index(drop=True)
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """The outcome of one fit (least squares).
+
+    Attributes
+    ----------
+    model, chain, method, label : str
+    values : dict
+        Best-fit natural parameter values (fixed ones included).
+    stderr : dict
+        Standard errors (natural units, delta method for log-scaled parameters); NaN
+        where the covariance does not exist.
+    intervals : dict
+        name -> ``{"p2.5", "p16", "p50", "p84", "p97.5"}`` (least squares: Gaussian in
+        the internal coordinate, so asymmetric for log-scaled parameters).
+    correlations : pandas.DataFrame
+    metrics : dict
+        See :mod:`fitdf.metrics`.
+    residuals : pandas.DataFrame
+        One row per data row used.
+    warnings : list of str
+    info : dict
+        Optimiser details: starts, which start won, how many agreed, seed, settings.
+    """
+
+    model: str
+    chain: str
+    method: str
+    label: str
+    values: dict
+    stderr: dict
+    intervals: dict
+    correlations: pd.DataFrame
+    metrics: dict
+    residuals: pd.DataFrame
+    warnings: list
+    info: dict
+    problem: Any = field(repr=False, compare=False)
+    internal: np.ndarray = field(repr=False, compare=False)
+
+    @property
+    def n_params(self) -> int:
+        return self.problem.ndim
+
+    def predict(self, amplitude, frequency, source_impedance=0.0, table=None):
+        """Predicted measured DF (complex) at arbitrary points, with the best-fit values.
+
+        ``table`` picks the calibration gain of that table in a joint fit (default: the first).
+        """
+        amplitude, frequency, source_impedance = np.broadcast_arrays(
+            np.asarray(amplitude, float), np.asarray(frequency, float), np.asarray(source_impedance, float))
+        group = np.full(amplitude.shape, table if table is not None else self.problem.data.groups[0])
+        values = {k: np.asarray(v) for k, v in self.values.items()}
+        return self.problem.predict_natural(values, amplitude.ravel(), frequency.ravel(),
+                                            source_impedance.ravel(), group.ravel()).reshape(amplitude.shape)
+
+    def describing_function(self, amplitude, frequency=0.0):
+        """The fitted core's own ``N`` (model only, no chain) at model-input amplitudes."""
+        theta = np.array([self.values[p.name] for p in self.problem.model.params])
+        return self.problem.model.evaluate(np.atleast_1d(amplitude), np.atleast_1d(frequency), theta)
+
+    def parameter_table(self) -> pd.DataFrame:
+        specs = {s.name: s for s in self.problem.all_specs}
+        rows = []
+        for name, value in self.values.items():
+            s = specs[name]
+            iv = self.intervals.get(name, {})
+            rows.append({"parameter": name, "value": value, "stderr": self.stderr.get(name, np.nan),
+                         "p2.5": iv.get("p2.5", np.nan), "p16": iv.get("p16", np.nan),
+                         "p84": iv.get("p84", np.nan), "p97.5": iv.get("p97.5", np.nan),
+                         "unit": s.unit, "fixed": name in self.problem.fixed,
+                         "lower": s.bounds[0], "upper": s.bounds[1]})
+        return pd.DataFrame(rows)
+
+    def metrics_by_frequency(self) -> pd.DataFrame:
+        r = self.residuals
+        rows = []
+        for (rs, f), g in r.groupby(["source_impedance_ohm", "frequency_hz"]):
+            pred = g["df_predicted"] * np.exp(1j * np.deg2rad(g["phase_lead_predicted_deg"]))
+            meas = g["df_measured"] * np.exp(1j * np.deg2rad(g["phase_lead_measured_deg"]))
+            rows.append({"source_impedance_ohm": rs, "frequency_hz": f, "n": len(g),
+                         **residual_metrics(pred.to_numpy(), meas.to_numpy())})
+        return pd.DataFrame(rows)
+
+    def summary(self) -> str:
+        m = self.metrics
+        lines = [f"{self.model} + {self.chain} chain ({self.method}) on {self.label}: "
+                 f"{m['n_points']} rows, {m['n_params']} parameters",
+                 f"  RMS complex {m['rms_complex']:.4f}  magnitude {m['rms_magnitude']:.4f}  "
+                 f"phase {m['rms_phase_deg']:.2f} deg  redchi {m['redchi']:.3g}  AICc {m['aicc']:.1f}"]
+        for _, row in self.parameter_table().iterrows():
+            tag = " (fixed)" if row["fixed"] else ""
+            lines.append(f"  {row['parameter']:<14s} {row['value']:.5g} {row['unit']}"
+                         f"  68%: [{row['p16']:.4g}, {row['p84']:.4g}]{tag}")
+        lines += [f"  warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+    def __str__(self):
+        return self.summary()
+
+    def to_dict(self) -> dict:
+        """Plain-Python (JSON-ready) record of the result."""
+        return _jsonable({
+            "model": self.model, "chain": self.chain, "method": self.method, "label": self.label,
+            "parameters": self.parameter_table().to_dict(orient="records"),
+            "correlations": self.correlations.to_dict(),
+            "metrics": self.metrics, "warnings": list(self.warnings), "info": self.info,
+            "rows_used": self.residuals.to_dict(orient="records"),
+        })
+
+    def plot(self, **kwargs):
+        """Figure of measured and fitted magnitude and phase against input (see fitdf.plots)."""
+        from .plots import plot_fit
+
+        return plot_fit(self, **kwargs)
+
+
+@dataclass(frozen=True)
+class PosteriorResult(FitResult):
+    """An MCMC fit: the FitResult fields from the posterior, plus the chain and diagnostics.
+
+    ``samples`` are internal coordinates of shape ``(n_draws, n_walkers, P)`` after
+    burn-in and thinning; ``noise_samples`` the fitted noise scales.
+    """
+
+    samples: np.ndarray = field(default=None, repr=False, compare=False)
+    noise_samples: np.ndarray = field(default=None, repr=False, compare=False)
+    diagnostics: dict = field(default_factory=dict)
+
+    def flat_internal(self, max_draws: int | None = None, seed: int = 0):
+        flat = self.samples.reshape(-1, self.samples.shape[-1])
+        if max_draws is not None and flat.shape[0] > max_draws:
+            idx = np.random.default_rng(seed).choice(flat.shape[0], max_draws, replace=False)
+            flat = flat[np.sort(idx)]
+        return flat
+
+    def predictive_band(self, amplitude, frequency, source_impedance=0.0, table=None,
+                        quantiles=(2.5, 16, 50, 84, 97.5), max_draws=400, seed=0) -> dict:
+        """Posterior predictive bands of |DF| and phase lead (deg) at the given points."""
+        amplitude, frequency, source_impedance = np.broadcast_arrays(
+            np.asarray(amplitude, float), np.asarray(frequency, float), np.asarray(source_impedance, float))
+        flat = self.flat_internal(max_draws, seed)
+        group = np.full(amplitude.size, table if table is not None else self.problem.data.groups[0])
+        pred = self.problem.predict_natural(self.problem.full_natural(flat), amplitude.ravel(),
+                                            frequency.ravel(), source_impedance.ravel(), group)
+        mag = np.percentile(np.abs(pred), quantiles, axis=0)
+        phase = np.percentile(np.angle(pred, deg=True), quantiles, axis=0)
+        return {"quantiles": list(quantiles), "magnitude": mag.reshape((len(quantiles),) + amplitude.shape),
+                "phase_deg": phase.reshape((len(quantiles),) + amplitude.shape)}
+
+    def to_dict(self) -> dict:
+        d = super().to_dict()
+        d["diagnostics"] = _jsonable(self.diagnostics)
+        return d
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        return v if np.isfinite(v) else None
+    return obj
