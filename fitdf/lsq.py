@@ -58,9 +58,12 @@ def _uncertainties(problem: FitProblem, x, covar):
     for i, s in enumerate(problem.specs):
         value = float(s.from_internal(x[i]))
         stderr[s.name] = float(np.log(10) * value * sig[i]) if s.log else float(sig[i])
+        # Gaussian in the internal coordinate, cut at the declared bounds (a parameter pinned
+        # on a bound has a meaningless covariance; its interval is then the bound-limited one).
+        lo, hi = s.internal_bounds
         q = {"p2.5": x[i] - _Z95 * sig[i], "p16": x[i] - sig[i], "p50": x[i],
              "p84": x[i] + sig[i], "p97.5": x[i] + _Z95 * sig[i]}
-        intervals[s.name] = {k: float(s.from_internal(v)) for k, v in q.items()}
+        intervals[s.name] = {k: float(s.from_internal(np.clip(v, lo, hi))) for k, v in q.items()}
     if covar is not None:
         d = np.where(sig > 0, sig, np.nan)
         corr = covar / np.outer(d, d)
