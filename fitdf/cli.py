@@ -220,7 +220,7 @@ def _validate(args):
         unknown = [m for m in args.models if m not in model_names()]
         if unknown:
             raise OptionError(f"unknown model(s) {', '.join(unknown)}; known: {', '.join(model_names())}")
-    if getattr(args, "steps", 1) is not None and getattr(args, "steps", 1) < 50:
+    if getattr(args, "steps", None) is not None and args.steps < 50:
         raise OptionError("--steps must be at least 50")
     if getattr(args, "rank_by", None) in ("looic", "waic") and getattr(args, "method", "mcmc") == "lsq":
         raise OptionError(f"--rank-by {args.rank_by} needs --method mcmc or both")
