@@ -166,6 +166,28 @@ def cmd_fit(args):
     return 0
 
 
+def cmd_report(args):
+    from .report import generate_report
+
+    out = generate_report(out_dir=args.out, seed=args.seed, quick=args.quick, progress=not args.quiet)
+    print(f"report written to {out}/ (README.md, index.html, results.json, figures/)")
+    return 0
+
+
+def cmd_limit_cycle(args):
+    from .limitcycle import format_limit_cycle_table, limit_cycle_command
+
+    result = limit_cycle_command(args.data, args.plant, args.gain, args.source_impedance, model=args.model,
+                                 chain=args.chain, seed=args.seed, plot=args.plot)
+    if args.json:
+        _emit_json(_clean(result))
+        return 0
+    print(format_limit_cycle_table(result))
+    if args.plot:
+        print(f"Nyquist-plane figure written to {args.plot}")
+    return 0
+
+
 # ------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
     from .compare import RANK_COLUMNS
@@ -209,6 +231,27 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--policy", default="default", choices=["default", "all", "strict"],
                     help="which audited rows to use (datasets/README.md)")
     sp.add_argument("--no-cv", action="store_true", help="skip the leave-one-frequency-out cross-validation")
+
+    sp = add("report", cmd_report, "fit every model to every core and write the comparison report",
+             ["fitdf report", "fitdf report --out /tmp/myreport --seed 3", "fitdf report --quick"])
+    sp.add_argument("--out", default="reports", metavar="DIR", help="output folder (default: reports)")
+    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--quick", action="store_true", help="least squares only, for a fast look")
+
+    sp = add("limit-cycle", cmd_limit_cycle, "predict limit cycles of a loop closed around a fitted core",
+             ['fitdf limit-cycle permalloy --plant "K/((1+s)(1+0.25s)(1+1.1s))" --gain 500 1000 2500 '
+              "--source-impedance 600",
+              'fitdf limit-cycle deltamax --plant "10/(s*(s+1)*(s+2))" --gain 1 --json',
+              'fitdf limit-cycle B.3 --plant "K/((1+s)(1+0.25s)(1+1.1s))" --gain 1000 --plot loci.png'])
+    sp.add_argument("data", help="core name, table (B.1..B.5) or CSV path of the core's measured DF")
+    sp.add_argument("--plant", required=True, help="transfer function in s, with K for the gain, "
+                                                    "e.g. \"K/((1+s)(1+0.25s)(1+1.1s))\"")
+    sp.add_argument("--gain", type=float, nargs="+", default=[1.0], metavar="K", help="loop gain(s) K")
+    sp.add_argument("--source-impedance", type=float, default=0.0, metavar="OHM")
+    sp.add_argument("--model", default=None, help="model to use (default: the best by least squares)")
+    sp.add_argument("--chain", default="winding", choices=["winding", "direct"])
+    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--plot", default=None, metavar="FILE.png", help="write the Nyquist-plane figure")
     return p
 
 
@@ -216,6 +259,8 @@ def _validate(args):
     from .errors import OptionError
     from .models import model_names
 
+    if getattr(args, "model", None) and args.model not in model_names():
+        raise OptionError(f"unknown model {args.model!r}; known: {', '.join(model_names())}")
     if getattr(args, "models", None):
         unknown = [m for m in args.models if m not in model_names()]
         if unknown:

@@ -1,0 +1,118 @@
+"""The command line as a user drives it: subprocesses of the installed console script."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+FITDF = shutil.which("fitdf") or os.path.join(os.path.dirname(sys.executable), "fitdf")
+
+
+def run(*args, timeout=600):
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    return subprocess.run([FITDF, *args], capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def assert_user_error(proc, *fragments):
+    assert proc.returncode == 2, (proc.returncode, proc.stdout, proc.stderr)
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr  # one line, never a traceback
+    assert "Traceback" not in proc.stderr
+    for f in fragments:
+        assert f in lines[0], lines[0]
+
+
+def test_version_and_help():
+    v = run("--version")
+    assert v.returncode == 0 and v.stdout.startswith("fitdf ")
+    h = run("--help")
+    assert h.returncode == 0
+    for cmd in ("datasets", "audit", "models", "fit", "report", "limit-cycle"):
+        assert cmd in h.stdout
+        sub = run(cmd, "--help")
+        assert sub.returncode == 0 and "examples:" in sub.stdout, cmd
+
+
+def test_no_command_prints_help_and_exits_2():
+    p = run()
+    assert p.returncode == 2 and "usage" in p.stdout
+
+
+def test_datasets_lists_every_table_with_counts():
+    p = run("datasets")
+    assert p.returncode == 0, p.stderr
+    for t in ("B.1", "B.2", "B.3", "B.4", "B.5", "table_5_1", "table_5_2"):
+        assert t in p.stdout
+    j = json.loads(run("datasets", "--json").stdout)
+    assert sum(r["rows"] for r in j["appendix_b"]) == 264
+
+
+def test_audit_shows_flagged_rows_and_findings():
+    p = run("audit", "B.1")
+    assert p.returncode == 0, p.stderr
+    assert "power-of-ten" in p.stdout
+    assert "3.3" in p.stdout  # the DF factor the B.1 data follow
+    j = json.loads(run("audit", "--json").stdout)
+    assert j["rows"] == 264 and len(j["flagged"]) > 10 and j["findings"]
+
+
+def test_models_lists_every_model_with_equations():
+    p = run("models")
+    assert p.returncode == 0, p.stderr
+    for m in ("constant_width", "proportional_width", "proportional_width_fig42", "cubic_hc", "rayleigh",
+              "frequency_hc", "winding", "direct"):
+        assert m in p.stdout
+    assert "eq" in p.stdout
+    j = json.loads(run("models", "--json").stdout)
+    assert {m["name"] for m in j["models"]} >= {"rayleigh", "cubic_hc"}
+
+
+def test_fit_prints_ranking_and_json():
+    p = run("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert "Ranking on B.3" in p.stdout and "Best model" in p.stdout
+    j = json.loads(run("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", "--json").stdout)
+    assert [r["rank"] for r in j["ranking"]] == [1, 2]
+    assert {f["model"] for f in j["fits"]} == {"constant_width", "rayleigh"}
+    for f in j["fits"]:
+        assert f["metrics"]["rms_complex"] > 0 and f["parameters"]
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (("fit", "nosuchcore"), ["nosuchcore"]),
+    (("fit", "missing_dir/file.csv"), ["file.csv"]),
+    (("fit", "B.3", "--models", "bogus"), ["unknown model", "bogus"]),
+    (("fit", "B.3", "--chain", "bogus"), ["bogus"]),
+    (("fit", "B.3", "--method", "magic"), ["magic"]),
+    (("fit", "B.3", "--steps", "10"), ["--steps"]),
+    (("fit", "B.3", "--rank-by", "looic"), ["looic", "mcmc"]),
+    (("fit", "B.3", "--source-impedance", "50"), ["50"]),
+    (("fit", "B.3", "--seed", "abc"), ["abc"]),
+    (("audit", "nosuch.csv"), ["nosuch.csv"]),
+    (("bogus-command",), ["bogus-command"]),
+])
+def test_user_errors_are_one_line_and_exit_2(args, fragments):
+    assert_user_error(run(*args), *fragments)
+
+
+def test_bad_csv_is_a_user_error(tmp_path):
+    bad = tmp_path / "core.csv"
+    bad.write_text("input_v,frequency_hz,df_reported,phase_lead_deg\n0.5,10,abc,3\n")
+    assert_user_error(run("fit", str(bad)), "core.csv", "df_reported")
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    assert_user_error(run("audit", str(empty)), "empty.csv")
+
+
+def test_user_csv_fits(tmp_path):
+    good = tmp_path / "mycore.csv"
+    rows = ["input_v,frequency_hz,df_reported,phase_lead_deg,source_impedance_ohm"]
+    for f in (5.0, 10.0):
+        for v, d, ph in ((0.2, 0.5, 30), (0.5, 0.7, 15), (1.0, 0.8, 8), (2.0, 0.6, 20), (3.0, 0.45, 35)):
+            rows.append(f"{v},{f},{d},{ph},600")
+    good.write_text("\n".join(rows) + "\n")
+    p = run("fit", str(good), "--models", "constant_width", "--no-cv", "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert "mycore.csv" in p.stdout
