@@ -1,0 +1,86 @@
+"""Ranking, cross-validation and cross-impedance prediction."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from fitdf.compare import RANK_COLUMNS, compare, cross_impedance, cross_validate, fit_all, ranking_table
+from fitdf.errors import OptionError
+
+from synthetic import synthetic_frame
+
+CHAIN = {"r_winding": 100.0, "gain": 0.95}
+RIVALS = ["constant_width", "proportional_width", "rayleigh"]
+TRUTH = {
+    "constant_width": {"k": 80.0, "b": 2e-4, "c": 0.04},
+    "proportional_width": {"k": 60.0, "c": 0.035, "m": 0.3},
+    "rayleigh": {"mu0": 20.0, "gamma": 8e4, "c_sat": 0.038},
+}
+
+
+@pytest.mark.parametrize("truth", RIVALS)
+def test_data_generated_by_a_model_rank_it_first(truth):
+    frame = synthetic_frame(truth, {**TRUTH[truth], **CHAIN}, source_impedances=(0.0, 600.0), seed=7)
+    table = compare(frame, models=RIVALS, cross_validation=False, policy="all")
+    assert table.iloc[0]["model"] == truth, table[["model", "rms_complex", "aicc"]]
+    # and by a wide margin: the others misfit by far more than the noise
+    assert table.iloc[1]["rms_complex"] > 2 * table.iloc[0]["rms_complex"]
+    by_aicc = compare(frame, models=RIVALS, cross_validation=False, policy="all", rank_by="aicc")
+    assert by_aicc.iloc[0]["model"] == truth
+    assert list(table["rank"]) == [1, 2, 3]
+
+
+def test_ranking_columns_and_ties():
+    frame = synthetic_frame("proportional_width", {**TRUTH["proportional_width"], **CHAIN}, seed=1)
+    results = fit_all(frame, models=["proportional_width", "proportional_width"], policy="all")
+    table = ranking_table(results)
+    for col in ("n_params", "rms_complex", "rms_magnitude", "rms_phase_deg", "redchi", "aicc", "bic",
+                "delta_aicc", "aicc_weight", "indistinguishable_from"):
+        assert col in table
+    # the same model twice cannot be told apart
+    assert table.loc[0, "indistinguishable_from"] == "proportional_width/winding"
+    np.testing.assert_allclose(table["aicc_weight"].sum(), 1.0)
+    with pytest.raises(OptionError, match="cannot rank by"):
+        ranking_table(results, rank_by="nope")
+    with pytest.raises(OptionError, match="needs MCMC"):
+        ranking_table(results, rank_by="looic")
+    assert set(RANK_COLUMNS) >= {"rms_complex", "aicc", "looic"}
+
+
+def test_cross_validation_predicts_a_held_out_frequency():
+    frame = synthetic_frame("proportional_width", {**TRUTH["proportional_width"], **CHAIN}, seed=2)
+    r = fit_all(frame, models=["proportional_width"], policy="all")[0]
+    cv = cross_validate(r)
+    assert cv["cv_folds"] == 3
+    # the right model predicts unseen frequencies nearly at the noise level ...
+    assert cv["cv_rms_complex"] < 3 * r.metrics["rms_complex"]
+    wrong = fit_all(frame, models=["rayleigh"], policy="all")[0]
+    # ... and better than a wrong model does
+    assert cross_validate(wrong)["cv_rms_complex"] > cv["cv_rms_complex"]
+
+
+def test_cross_impedance_prediction_table_on_real_data():
+    table = cross_impedance("permalloy", models=["proportional_width", "rayleigh"])
+    assert set(table.columns) >= {"model", "train_ohm", "test_ohm", "train_rms_complex", "predict_rms_complex",
+                                  "predict_rms_magnitude", "predict_rms_phase_deg", "calibration_gain"}
+    assert (table["test_ohm"] == 600).all() and (table["n_test"] > 30).all()
+    assert table["predict_rms_complex"].is_monotonic_increasing
+    assert np.isfinite(table["predict_rms_complex"]).all()
+
+
+def test_cross_impedance_on_synthetic_truth():
+    truth = {**TRUTH["rayleigh"], **CHAIN}
+    frame = pd.concat([synthetic_frame("rayleigh", truth, source_impedances=(0.0,), table="T0", seed=3),
+                       synthetic_frame("rayleigh", truth, source_impedances=(600.0,), table="T600", seed=4)])
+    # 600 -> 0 ohm: the generating model predicts the other impedance best; the error is
+    # set by how well 600 ohm data pin the winding resistance (0 ohm DF = Z / (r_winding + Z))
+    table = cross_impedance(frame, models=["rayleigh", "constant_width"], policy="all", train_ohm=600.0,
+                            test_ohm=0.0)
+    best = table.iloc[0]
+    assert best["model"] == "rayleigh" and best["predict_rms_complex"] < 0.1, table
+    assert table.iloc[1]["predict_rms_complex"] > 1.5 * best["predict_rms_complex"], table
+    # 0 -> 600 ohm is not identifiable from 0 ohm data alone: only the ratio of the core's
+    # impedance to the winding resistance is seen, and the fit says so in its intervals.
+    from fitdf import fit
+    r0 = fit(frame[frame["source_impedance_ohm"] == 0], "rayleigh", policy="all")
+    iv = r0.intervals["r_winding"]
+    assert iv["p84"] / iv["p16"] > 10
