@@ -90,14 +90,14 @@ def numerical_describing_function(
     flat = [a.reshape(-1) for a in arrays]
     A, f, params = flat[0], flat[1], dict(zip(theta.keys(), flat[2:]))
     _, sin_t, cos_t = _grid(n_points)
-    phasor = sin_t + 1j * cos_t
     out = np.zeros(A.size, dtype=complex)
     step = max(1, chunk // n_points)
     for start in range(0, A.size, step):  # chunks of many amplitudes, not one per amplitude
         sl = slice(start, start + step)
         _, _, y = steady_state_output(branch, A[sl], f[sl], n_points=n_points,
                                       **{k: v[sl] for k, v in params.items()})
-        coeff = (2.0 / n_points) * (y @ phasor)  # a1 + j b1
+        # two real products: a complex one would cast y to complex and run far slower
+        coeff = (2.0 / n_points) * ((y @ sin_t) + 1j * (y @ cos_t))  # a1 + j b1
         with np.errstate(divide="ignore", invalid="ignore"):
             out[sl] = np.where(A[sl] > 0, coeff / A[sl], 0.0)
     return out.reshape(shape)
