@@ -141,7 +141,8 @@ def cmd_fit(args):
     try:
         table = compare(args.data, models=models, chains=tuple(args.chain), method=args.method, seed=args.seed,
                         rank_by=args.rank_by, cross_validation=not args.no_cv, progress=progress,
-                        source_impedance=args.source_impedance, policy=args.policy, n_steps=args.steps)
+                        source_impedance=args.source_impedance, policy=args.policy, n_steps=args.steps,
+                        max_steps=args.max_steps)
     finally:
         if progress is not None:
             progress.close()
@@ -178,7 +179,7 @@ def cmd_limit_cycle(args):
     from .limitcycle import format_limit_cycle_table, limit_cycle_command
 
     result = limit_cycle_command(args.data, args.plant, args.gain, args.source_impedance, model=args.model,
-                                 chain=args.chain, seed=args.seed, plot=args.plot)
+                                 chain=args.chain, seed=args.seed, plot=args.plot, time_scale=args.time_scale)
     if args.json:
         _emit_json(_clean(result))
         return 0
@@ -226,7 +227,9 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--source-impedance", type=float, default=None, metavar="OHM",
                     help="only rows at this source impedance (default: all, fitted jointly)")
     sp.add_argument("--seed", type=int, default=0)
-    sp.add_argument("--steps", type=int, default=1500, help="MCMC steps per walker")
+    sp.add_argument("--steps", type=int, default=1000, help="minimum MCMC steps per walker (default 1000)")
+    sp.add_argument("--max-steps", type=int, default=5000,
+                    help="extend the chain up to this many steps until it is 50 autocorrelation times long")
     sp.add_argument("--rank-by", default="rms_complex", choices=list(RANK_COLUMNS))
     sp.add_argument("--policy", default="default", choices=["default", "all", "strict"],
                     help="which audited rows to use (datasets/README.md)")
@@ -247,8 +250,11 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--plant", required=True, help="transfer function in s, with K for the gain, "
                                                     "e.g. \"K/((1+s)(1+0.25s)(1+1.1s))\"")
     sp.add_argument("--gain", type=float, nargs="+", default=[1.0], metavar="K", help="loop gain(s) K")
-    sp.add_argument("--source-impedance", type=float, default=0.0, metavar="OHM")
-    sp.add_argument("--model", default=None, help="model to use (default: the best by least squares)")
+    sp.add_argument("--source-impedance", type=float, default=None, metavar="OHM",
+                    help="rows and DF at this source impedance (default: the data's only one)")
+    sp.add_argument("--model", default=None, help="model to use (default: the lowest AICc of all models)")
+    sp.add_argument("--time-scale", type=float, default=1.0, metavar="ALPHA",
+                    help="run the plant as G(s/ALPHA), e.g. for a time-scaled analog computer (default 1)")
     sp.add_argument("--chain", default="winding", choices=["winding", "direct"])
     sp.add_argument("--seed", type=int, default=0)
     sp.add_argument("--plot", default=None, metavar="FILE.png", help="write the Nyquist-plane figure")
@@ -267,6 +273,10 @@ def _validate(args):
             raise OptionError(f"unknown model(s) {', '.join(unknown)}; known: {', '.join(model_names())}")
     if getattr(args, "steps", None) is not None and args.steps < 50:
         raise OptionError("--steps must be at least 50")
+    if getattr(args, "time_scale", 1.0) <= 0:
+        raise OptionError("--time-scale must be positive")
+    if getattr(args, "max_steps", None) is not None and args.max_steps < args.steps:
+        raise OptionError("--max-steps must be at least --steps")
     if getattr(args, "rank_by", None) in ("looic", "waic") and getattr(args, "method", "mcmc") == "lsq":
         raise OptionError(f"--rank-by {args.rank_by} needs --method mcmc or both")
 

@@ -51,7 +51,8 @@ def resolve_data(data, policy: str = "default", source_impedance=None, label: st
 
 def fit(data, model, chain: str = "winding", method: str = "lsq", seed: int = 0, policy: str = "default",
         source_impedance=None, noise: NoiseModel | None = None, fixed: dict | None = None,
-        n_starts: int = 6, n_steps: int = 1500, n_walkers: int | None = None, progress: bool = False):
+        n_starts: int = 6, n_steps: int = 1000, max_steps: int | None = 5000, n_walkers: int | None = None,
+        progress: bool = False):
     """Fit one model seen through one measurement chain.
 
     Parameters
@@ -65,6 +66,9 @@ def fit(data, model, chain: str = "winding", method: str = "lsq", seed: int = 0,
         "mcmc" runs least squares first and starts the walkers there.
     seed : int
         Makes the multi-start and the chain reproducible.
+    n_steps, max_steps : int
+        MCMC runs at least ``n_steps`` and extends up to ``max_steps`` until the chain is
+        50 autocorrelation times long.
 
     Returns
     -------
@@ -82,4 +86,5 @@ def fit(data, model, chain: str = "winding", method: str = "lsq", seed: int = 0,
     result = fit_lsq(problem, seed=seed, n_starts=n_starts)
     if method == "lsq":
         return result
-    return fit_mcmc(problem, result, seed=seed, n_steps=n_steps, n_walkers=n_walkers, progress=progress)
+    return fit_mcmc(problem, result, seed=seed, n_steps=n_steps, max_steps=max_steps, n_walkers=n_walkers,
+                    progress=progress)

@@ -118,8 +118,14 @@ def _arviz_diagnostics(chain, names, sub_chain, loglik):
 
 def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int | None = None,
              n_steps: int = 1500, progress: bool = False, max_loo_draws: int = 1000,
-             moves=None) -> PosteriorResult:
-    """Sample the posterior of ``problem`` starting from the least-squares result ``lsq``."""
+             moves=None, max_steps: int | None = None, check_every: int = 250) -> PosteriorResult:
+    """Sample the posterior of ``problem`` starting from the least-squares result ``lsq``.
+
+    Runs at least ``n_steps`` steps, then keeps going in blocks of ``check_every`` until the
+    chain is 50 integrated autocorrelation times long or ``max_steps`` (default
+    ``n_steps``: no extension) is reached. The stopping rule only reads the chain, so a
+    seed still fixes the result.
+    """
     rng = np.random.default_rng(seed)
     logpost = LogPosterior(problem)
     P = problem.ndim
@@ -130,9 +136,14 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     moves = moves if moves is not None else DEFAULT_MOVES()
     sampler = emcee.EnsembleSampler(n_walkers, ndim, logpost, vectorize=True, moves=moves)
     sampler.random_state = np.random.RandomState(seed).get_state()
-    sampler.run_mcmc(p0, n_steps, progress=progress)
-
+    max_steps = max(n_steps, max_steps or n_steps)
+    state = sampler.run_mcmc(p0, n_steps, progress=progress)
     tau = sampler.get_autocorr_time(tol=0)
+    while sampler.iteration < max_steps and sampler.iteration < 50 * np.nanmax(tau):
+        state = sampler.run_mcmc(state, min(check_every, max_steps - sampler.iteration), progress=progress)
+        tau = sampler.get_autocorr_time(tol=0)
+    n_steps = sampler.iteration
+
     tau_max = float(np.nanmax(tau))
     burn = min(int(np.ceil(3 * tau_max)), n_steps // 2)
     thin = max(1, int(np.floor(np.nanmin(tau) / 2)))

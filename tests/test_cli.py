@@ -116,3 +116,28 @@ def test_user_csv_fits(tmp_path):
     p = run("fit", str(good), "--models", "constant_width", "--no-cv", "--quiet")
     assert p.returncode == 0, p.stderr
     assert "mycore.csv" in p.stdout
+
+
+def test_limit_cycle_command_prints_table_json_and_plot(tmp_path):
+    plant = "K/((1+s)(1+0.25s)(1+1.1s))"
+    p = run("limit-cycle", "B.1", "--plant", plant, "--gain", "100", "500", "--model", "proportional_width")
+    assert p.returncode == 0, p.stderr
+    assert "100" in p.stdout and "500" in p.stdout
+    png = tmp_path / "loci.png"
+    j = run("limit-cycle", "B.1", "--plant", plant, "--gain", "500", "--model", "proportional_width", "--json",
+            "--plot", str(png))
+    assert j.returncode == 0, j.stderr
+    data = json.loads(j.stdout)
+    assert data and png.exists() and png.stat().st_size > 1000
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (("limit-cycle", "B.1", "--plant", "K/((1+s)(1+0.25s"), ["plant"]),
+    (("limit-cycle", "B.1", "--plant", "__import__('os')"), ["plant"]),
+    (("limit-cycle", "permalloy", "--plant", "K/(1+s)"), ["source impedance"]),
+    (("limit-cycle", "B.1", "--plant", "K/(1+s)", "--model", "bogus"), ["bogus"]),
+    (("limit-cycle", "B.1", "--plant", "K/(1+s)", "--time-scale", "0"), ["--time-scale"]),
+    (("limit-cycle", "B.1"), ["--plant"]),
+])
+def test_limit_cycle_user_errors(args, fragments):
+    assert_user_error(run(*args), *fragments)

@@ -1,0 +1,263 @@
+"""Harmonic balance against closed forms, Loeb's criterion, gain sweeps, and the thesis loop."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.optimize import brentq
+
+from fitdf.errors import OptionError
+from fitdf.limitcycle import (THESIS_PLANT, critical_gain, estimate_thesis_scales, format_limit_cycle_table,
+                              limit_cycles)
+
+PLANT = "K/(s(s+1)(s+2))"          # -180 deg at w = sqrt(2), |G(j sqrt 2)| = K / 6
+
+
+def relay(M=1.0, h=0.1):
+    """Ideal relay with hysteresis: N = 4M/(pi A) (sqrt(1 - (h/A)^2) - j h/A)."""
+    def N(A, w):
+        A = np.asarray(A, float)
+        with np.errstate(all="ignore"):
+            out = 4 * M / (np.pi * A) * (np.sqrt(1 - (h / A) ** 2) - 1j * h / A)
+        return np.where(A > h, out, np.nan)
+    return N
+
+
+def saturation_df(A):
+    A = np.asarray(A, float)
+    with np.errstate(all="ignore"):
+        r = np.minimum(1.0 / A, 1.0)
+        return (2 / np.pi) * (np.arcsin(r) + r * np.sqrt(1 - r * r))
+
+
+def saturation(A, w):
+    return saturation_df(A) + 0j
+
+
+def dead_zone_relay(M=1.0, delta=0.5):
+    """N = 4M/(pi A) sqrt(1 - (delta/A)^2) for A > delta, else 0; maximum 2M/(pi delta) at A = sqrt(2) delta."""
+    def N(A, w):
+        A = np.asarray(A, float)
+        with np.errstate(all="ignore"):
+            out = 4 * M / (np.pi * A) * np.sqrt(np.clip(1 - (delta / A) ** 2, 0, None))
+        return np.where(A > delta, out, 0.0) + 0j
+    return N
+
+
+def relay_analytic(K, M=1.0, h=0.1):
+    """Closed form: Im G(jw) = -pi h / (4M) is a quintic in w; then Re G gives A."""
+    c = np.pi * h / (4 * M)
+    # G = K / (jw (1+jw)(2+jw)): Im G = -K (2 - w^2) / (w (9 w^2 + (2 - w^2)^2))
+    quintic = np.polysub(K * np.array([-1.0, 0.0, 2.0]),
+                         np.polymul([c, 0.0], np.polyadd([9.0, 0.0, 0.0], np.polymul([-1, 0, 2], [-1, 0, 2]))))
+    roots = np.roots(quintic)
+    w = roots[(np.abs(roots.imag) < 1e-9) & (roots.real > 0)].real
+    assert w.size == 1
+    w = float(w[0])
+    G = K / (1j * w * (1 + 1j * w) * (2 + 1j * w))
+    A = np.hypot(4 * M / np.pi * abs(G.real), h)
+    return A, w
+
+
+@pytest.mark.parametrize("K", [1.0, 2.0, 5.0])
+def test_relay_with_hysteresis_matches_closed_form(K):
+    r = limit_cycles(PLANT, relay(), gains=[K], amplitude_range=(0.1001, 50))
+    assert len(r.intersections) == 1
+    c = r.intersections[0]
+    A, w = relay_analytic(K)
+    assert c.amplitude == pytest.approx(A, rel=1e-6)
+    assert c.omega == pytest.approx(w, rel=1e-6)
+    assert c.stable and c.loeb > 0
+    assert abs(1 + c.G * c.N) < 1e-8
+
+
+def test_saturation_critical_gain_and_amplitude():
+    gains = [3.0, 5.5, 6.5, 8.0, 12.0, 20.0]
+    r = limit_cycles("1/(s(s+1)(s+2))", saturation, gains=gains, amplitude_range=(0.01, 100))
+    assert r.critical_gain == pytest.approx(6.0, rel=1e-6)
+    table = r.stable_cycles()
+    below = table[table["gain"] < 6]
+    assert below["amplitude"].isna().all()
+    above = table[table["gain"] > 6]
+    for _, row in above.iterrows():
+        A_exact = brentq(lambda a: saturation_df(a) - 6.0 / row["gain"], 1.0 + 1e-12, 1e3, xtol=1e-14)
+        assert row["amplitude"] == pytest.approx(A_exact, rel=1e-6)
+        assert row["omega_rad_s"] == pytest.approx(np.sqrt(2), rel=1e-8)
+    assert all(c.stable for c in r.intersections)
+
+
+def test_loeb_stable_and_unstable_cycles():
+    """A dead-zone relay crosses the plant twice: the small cycle is unstable, the large one stable."""
+    M, delta, K = 1.0, 0.5, 9.0
+    r = limit_cycles(PLANT, dead_zone_relay(M, delta), gains=[K], amplitude_range=(0.3, 30))
+    cycles = sorted(r.intersections, key=lambda c: c.amplitude)
+    assert [c.stable for c in cycles] == [False, True]
+    assert cycles[0].loeb < 0 < cycles[1].loeb
+    # N(A) = 6/K: q A^4 - A^2 + delta^2 = 0 with q = (pi (6/K) / (4M))^2
+    q = (np.pi * (6 / K) / (4 * M)) ** 2
+    roots = np.sqrt((1 + np.array([-1, 1]) * np.sqrt(1 - 4 * q * delta**2)) / (2 * q))
+    np.testing.assert_allclose([c.amplitude for c in cycles], roots, rtol=1e-6)
+    # the pair is born as a double root at K = 6 / N_max = 3 pi delta / M, A = sqrt(2) delta
+    crit = critical_gain(PLANT.replace("K", "1"), dead_zone_relay(M, delta), amplitude_range=(0.3, 30))
+    assert crit["gain"] == pytest.approx(3 * np.pi * delta / M, rel=1e-7)
+    assert crit["amplitude"] == pytest.approx(np.sqrt(2) * delta, rel=1e-4)
+    assert not crit["at_boundary"]
+    # below the critical gain nothing, not even a spurious root near the tangency
+    assert limit_cycles(PLANT, dead_zone_relay(M, delta), gains=[0.99 * crit["gain"]],
+                        amplitude_range=(0.3, 30)).intersections == ()
+
+
+def test_gain_sweep_is_monotone():
+    gains = np.geomspace(0.5, 20, 12)
+    t = limit_cycles(PLANT, relay(), gains=gains, amplitude_range=(0.1001, 100)).stable_cycles()
+    assert t["amplitude"].notna().all()
+    assert np.all(np.diff(t["amplitude"]) > 0)       # relay: A grows with K
+    assert np.all(np.diff(t["omega_rad_s"]) > 0)     # and w climbs towards sqrt(2)
+    assert t["omega_rad_s"].max() < np.sqrt(2)
+    s = limit_cycles(PLANT, saturation, gains=np.geomspace(6.5, 60, 8), amplitude_range=(0.01, 100)).stable_cycles()
+    assert np.all(np.diff(s["amplitude"]) > 0)
+
+
+def test_frequency_dependent_N_equals_moving_the_lag_into_the_plant():
+    """N(A, w) = N_sat(A) / (1 + j w T) in 1/(s(s+1)) must give the cycles of N_sat in 1/(s(s+1)(1+sT))."""
+    T = 0.5
+
+    def lagged(A, w):
+        return saturation_df(A) / (1 + 1j * np.asarray(w) * T)
+
+    gains = [4.0, 10.0]
+    a = limit_cycles("K/(s(s+1))", lagged, gains=gains, amplitude_range=(0.01, 100), omega_range=(0.05, 50))
+    b = limit_cycles("K/(s(s+1)(1+0.5s))", saturation, gains=gains, amplitude_range=(0.01, 100),
+                     omega_range=(0.05, 50))
+    ta, tb = a.table(), b.table()
+    np.testing.assert_allclose(ta["amplitude"], tb["amplitude"], rtol=1e-7)
+    np.testing.assert_allclose(ta["omega_rad_s"], tb["omega_rad_s"], rtol=1e-7)
+    assert list(ta["stable"]) == list(tb["stable"]) == [True, True]
+    np.testing.assert_allclose(ta["loeb"], tb["loeb"], rtol=1e-3)
+    assert a.critical_gain == pytest.approx(b.critical_gain, rel=1e-6)
+
+
+def test_gain_inside_the_plant_uses_bisection():
+    """K^2 G0: not linear in K, so the critical gain comes from the bisection (sqrt(6) for saturation)."""
+    r = limit_cycles("K^2/(s(s+1)(s+2))", saturation, gains=[3.0], amplitude_range=(0.01, 100))
+    assert r.critical_gain == pytest.approx(np.sqrt(6.0), rel=1e-6)
+    A = brentq(lambda a: saturation_df(a) - 6.0 / 9.0, 1.0 + 1e-12, 1e3)
+    assert r.intersections[0].amplitude == pytest.approx(A, rel=1e-6)
+
+
+def test_time_scale_scales_frequency_only():
+    a = limit_cycles(PLANT, relay(), gains=[2.0], amplitude_range=(0.1001, 50))
+    b = limit_cycles(PLANT, relay(), gains=[2.0], amplitude_range=(0.1001, 50), time_scale=4.0)
+    assert b.intersections[0].amplitude == pytest.approx(a.intersections[0].amplitude, rel=1e-7)
+    assert b.intersections[0].omega == pytest.approx(4.0 * a.intersections[0].omega, rel=1e-7)
+
+
+def test_response_table_json_and_plot():
+    r = limit_cycles(PLANT, dead_zone_relay(), gains=[3.0, 9.0], amplitude_range=(0.3, 30))
+    t = r.table()
+    assert list(t["oscillation"]) == [False, True, True]
+    assert {"gain", "amplitude", "omega_rad_s", "frequency_hz", "stable", "loeb"} <= set(t.columns)
+    json.dumps(r.to_dict(), allow_nan=False)
+    fig = r.plot()
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "Re" and len(ax.lines) >= 4
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"gains": [-1.0]}, "positive"),
+    ({"gains": None}, "contains K"),
+    ({"gains": [1.0], "amplitude_range": (2.0, 1.0)}, "low < high"),
+])
+def test_option_errors(kwargs, match):
+    kwargs.setdefault("amplitude_range", (0.2, 10))
+    with pytest.raises(OptionError, match=match):
+        limit_cycles(PLANT, relay(), **kwargs)
+
+
+def test_callable_needs_an_amplitude_range_and_bad_nonlinearity():
+    with pytest.raises(OptionError, match="amplitude_range"):
+        limit_cycles("1/(s(s+1))", saturation)
+    with pytest.raises(OptionError, match="nonlinearity"):
+        limit_cycles("1/(s(s+1))", 3.0, amplitude_range=(1, 2))
+
+
+class _StubFit:
+    """Anything with predict(amplitude, frequency_hz, source_impedance) is a nonlinearity."""
+
+    def __init__(self, lead_deg=40.0):
+        self.lead = np.deg2rad(lead_deg)
+
+    def predict(self, amplitude, frequency, source_impedance=0.0):
+        A = np.asarray(amplitude, float)
+        return saturation_df(A / 0.5) * np.exp(1j * self.lead) * np.ones_like(np.asarray(frequency, float))
+
+
+def test_estimate_thesis_scales_recovers_known_scales():
+    """Tables generated by harmonic balance with alpha = 2.5, beta = 0.3 give those numbers back."""
+    fit = _StubFit()
+    alpha, beta = 2.5, 0.3
+    K = np.array([500.0, 1000.0, 2000.0, 4000.0])
+    r = limit_cycles(THESIS_PLANT, fit, beta * K, amplitude_range=(0.01, 50), time_scale=alpha).stable_cycles()
+    assert r["amplitude"].notna().all()
+    rows = pd.DataFrame({"core": "stub", "source_impedance_ohm": 0.0, "system_gain": K,
+                         "amplitude_v": r["amplitude"], "omega_rad_s": r["omega_rad_s"]})
+    est = estimate_thesis_scales(rows, {("stub", 0.0): fit})
+    assert est["alpha"] == pytest.approx(alpha, rel=1e-6)
+    assert est["beta"] == pytest.approx(beta, rel=1e-6)
+    assert est["rms_phase_deg"] < 1e-5
+
+
+def test_fitted_core_in_the_thesis_loop():
+    """A small fit to Table B.1: cycles lie in the second quadrant (phase lead, Graph 5.21) and balance."""
+    from fitdf.fitting import fit
+
+    res = fit("B.1", "proportional_width", seed=0, n_starts=2)
+    r = limit_cycles(THESIS_PLANT, res, gains=[50.0, 150.0], source_impedance=0.0, time_scale=2.5,
+                     amplitude_range=(0.02, 10))
+    assert r.intersections, f"no cycle with the fitted values {res.values}"
+    for c in r.intersections:
+        assert abs(1 + c.G * c.N) < 1e-8
+        assert c.G.real < 0 < c.G.imag          # second quadrant
+        assert np.angle(c.N) > 0                # the core's voltage transfer leads
+    text = format_limit_cycle_table({"plant": THESIS_PLANT, "model": res.model, "chain": res.chain, "data": "B.1",
+                                     "source_impedance_ohm": 0.0, **r.to_dict()})
+    assert "die out below gain" in text
+
+
+def test_limit_cycle_command_is_json_ready(tmp_path):
+    from fitdf.limitcycle import limit_cycle_command
+
+    out = limit_cycle_command("B.1", THESIS_PLANT, [100.0, 400.0], None, model="constant_width", seed=0,
+                              time_scale=2.5, amplitude_range=(0.02, 10), n_starts=2, plot=tmp_path / "loci.png")
+    assert (tmp_path / "loci.png").stat().st_size > 0
+    json.dumps(out, allow_nan=False)
+    assert out["model"] == "constant_width" and out["gains"] == [100.0, 400.0]
+    assert out["source_impedance_ohm"] == 0.0          # B.1's only impedance
+    text = format_limit_cycle_table(out)
+    assert text.count("\n") >= 5 and "constant_width" in text
+
+
+def test_limit_cycle_command_needs_an_impedance_when_the_data_have_two():
+    from fitdf.limitcycle import limit_cycle_command
+
+    with pytest.raises(OptionError, match="several source impedances"):
+        limit_cycle_command("permalloy", THESIS_PLANT, [100.0], None, model="constant_width")
+    with pytest.raises(OptionError, match="plant"):
+        limit_cycle_command("B.1", "K/(s+", [100.0], 0.0, model="constant_width")
+
+
+@pytest.mark.slow
+def test_thesis_comparison_runs():
+    from fitdf.limitcycle import thesis_limit_cycle_comparison
+    from fitdf.plots.limitcycle import plot_thesis_comparison
+
+    df = thesis_limit_cycle_comparison(seed=0, models="proportional_width")
+    assert len(df) == 38
+    assert set(df["table"]) == {"B.1", "B.2", "B.3", "B.5"}
+    assert 1.0 < df.attrs["alpha"] < 10.0
+    live = df[~df["dies_out"]]
+    assert live["amplitude_pred"].notna().mean() > 0.5
+    fig = plot_thesis_comparison(df)
+    assert len(fig.axes) == 4
