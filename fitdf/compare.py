@@ -135,19 +135,28 @@ def compare(data, models=None, chains=("winding",), method="lsq", seed=0, rank_b
 
 
 def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=600.0, seed=0,
-                    policy="default", n_starts=6) -> pd.DataFrame:
+                    policy="default", n_starts=6, r_winding=None) -> pd.DataFrame:
     """Fit a core at one source impedance and predict its data at the other.
 
     Everything that describes the core (the law's parameters and the winding
-    resistance) comes from the training fit. The tables define their DF with different
-    calibration factors (see the audit), so the target table's calibration ``gain`` --
-    and only that -- is fitted on the target rows; chains without a gain predict as is.
+    resistance) comes from the training fit. Data at a single source impedance fix the
+    core only up to a current scale that trades against the winding resistance (see
+    :mod:`fitdf.cores`), so the winding chain's ``r_winding`` is held at ``r_winding``
+    (default: the Appendix A estimate for a thesis core) in both fits. The tables define
+    their DF with different calibration factors (see the audit), so the target table's
+    calibration ``gain`` -- and only that -- is fitted on the target rows.
     """
+    from .chain import get_chain
+    from .cores import winding_resistance_estimate
+
     train = resolve_data(core, policy, train_ohm)
     test = resolve_data(core, policy, test_ohm)
+    fixed0 = {}
+    if any(p.name == "r_winding" for p in get_chain(chain).params):
+        fixed0["r_winding"] = float(r_winding) if r_winding is not None else winding_resistance_estimate(core)
     rows = []
     for model in list(models or model_names()):
-        fitted = fit(train, model, chain=chain, seed=seed, n_starts=n_starts)
+        fitted = fit(train, model, chain=chain, seed=seed, n_starts=n_starts, fixed=fixed0)
         fixed = {k: v for k, v in fitted.values.items() if not k.startswith("gain")}
         target = FitProblem(test, model, chain, fitted.problem.noise, fixed=fixed)
         if target.ndim:
@@ -157,8 +166,10 @@ def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=
         else:
             pred = target.predict(np.zeros(0))
             gain = {}
-        rows.append({"core": str(core), "model": model, "chain": chain, "train_ohm": train_ohm,
-                     "test_ohm": test_ohm, "train_rms_complex": fitted.metrics["rms_complex"],
+        rows.append({"core": str(core) if not isinstance(core, pd.DataFrame) else "data", "model": model,
+                     "chain": chain, "train_ohm": train_ohm, "test_ohm": test_ohm,
+                     "r_winding_fixed": fixed0.get("r_winding", np.nan),
+                     "train_rms_complex": fitted.metrics["rms_complex"],
                      **{f"predict_{k}": v for k, v in residual_metrics(pred, test.measured).items()},
                      "n_test": test.n, "calibration_gain": next(iter(gain.values()), np.nan)})
     return pd.DataFrame(rows).sort_values("predict_rms_complex", kind="stable").reset_index(drop=True)
