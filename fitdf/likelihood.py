@@ -74,6 +74,10 @@ class FitProblem:
         self.specs: list[ParamSpec] = [s for s in self.all_specs if s.name not in self.fixed]
         self.names = [s.name for s in self.specs]
         self._group_index = {g: data.group == g for g in groups}
+        import inspect
+
+        self._chain_kwargs = set(inspect.signature(self.chain.predict).parameters)
+        self.warm_current = None
 
     # ---------------------------------------------------------------- coordinates
     @property
@@ -106,7 +110,7 @@ class FitProblem:
         return out
 
     # ---------------------------------------------------------------- predictions
-    def predict_natural(self, values: dict, amplitude, frequency, source_impedance, group=None):
+    def predict_natural(self, values: dict, amplitude, frequency, source_impedance, group=None, warm=None):
         """Measured-DF prediction for natural parameter values (arrays of a common batch shape)."""
         m_theta = np.stack([np.asarray(values[s.name], float) for s in self.model.params], axis=-1)
         c_specs = self.chain.params
@@ -117,8 +121,11 @@ class FitProblem:
             else:
                 c_values.append(np.asarray(values[s.name], float))
         c_theta = np.stack(c_values, axis=-1) if c_values else np.zeros(m_theta.shape[:-1] + (0,))
+        kw = {}
+        if warm is not None and "initial_current" in self._chain_kwargs:
+            kw["initial_current"] = warm
         pred = self.chain.predict(self.model, np.asarray(amplitude, float), np.asarray(frequency, float),
-                                  np.asarray(source_impedance, float), m_theta, c_theta)
+                                  np.asarray(source_impedance, float), m_theta, c_theta, **kw)
         return pred * self._gain_per_row(values, np.asarray(amplitude).size, group)
 
     def _gain_per_row(self, values, n, group):
@@ -137,7 +144,23 @@ class FitProblem:
     def predict(self, internal):
         """Prediction at the data rows for internal vectors of shape ``(..., P)``."""
         d = self.data
-        return self.predict_natural(self.full_natural(internal), d.amplitude, d.frequency, d.source_impedance)
+        return self.predict_natural(self.full_natural(internal), d.amplitude, d.frequency, d.source_impedance,
+                                    warm=self.warm_current)
+
+    def set_warm_start(self, internal):
+        """Start the chain's current solver at the currents of ``internal`` (e.g. the optimum).
+
+        Fixed once, so every later evaluation is independent of the evaluation history.
+        Only convergence speed changes: the solver still converges to its tolerance.
+        """
+        if "initial_current" not in self._chain_kwargs or not hasattr(self.chain, "core_current"):
+            return
+        values = self.full_natural(np.asarray(internal, float))
+        m_theta = np.array([float(values[s.name]) for s in self.model.params])
+        c_theta = np.array([1.0 if s.name in _PER_TABLE else float(values[s.name]) for s in self.chain.params])
+        d = self.data
+        self.warm_current = np.asarray(self.chain.core_current(self.model, d.amplitude, d.frequency,
+                                                               d.source_impedance, m_theta, c_theta))
 
     # ---------------------------------------------------------------- residuals
     def error_components(self, predicted):

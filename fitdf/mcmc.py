@@ -127,6 +127,7 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     seed still fixes the result.
     """
     rng = np.random.default_rng(seed)
+    problem.set_warm_start(lsq.internal)  # walkers stay near the optimum: its currents start the solver
     logpost = LogPosterior(problem)
     P = problem.ndim
     ndim = P + 2
