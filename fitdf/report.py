@@ -1,0 +1,428 @@
+"""The comparison report: every model fitted to every core, ranked, plotted, written atomically.
+
+:func:`generate_report` fits every registered model (winding chain) to each block of
+Appendix B -- Permalloy B.1 (0 ohm) and B.3 (600 ohm), Deltamax B.2 (0 ohm) and B.5
+(600 ohm), Supermalloy B.4 (600 ohm) -- and jointly to each core measured at both
+impedances (Permalloy B.1+B.3, Deltamax B.2+B.5), by least squares and MCMC; ranks
+the models; predicts across source impedance; compares limit cycles with Tables
+5.1/5.2 (when :mod:`fitdf.limitcycle` is available); and writes
+
+* ``results.json`` -- every number of the report (see :mod:`fitdf.report_render`);
+* ``figures/*.png`` -- the figures (:mod:`fitdf.plots`);
+* ``README.md`` and ``index.html`` -- the same report as Markdown (renders on a
+  code-hosting site) and as one self-contained HTML file.
+
+Cost and parallelism
+    Fits are independent jobs run by a pool of ``workers`` processes; each job
+    depends only on its inputs and the seed, so the report is identical to a serial
+    run (``workers=1``). Least squares runs for every model; MCMC, the
+    leave-one-frequency-out cross-validation and the cross-impedance prediction run
+    for the ``*_top`` best least-squares models of each block (``None`` = all) -- the
+    rest would multiply the run time without changing what the report shows.
+Atomic output
+    Everything is built in a temporary sibling of ``out_dir`` which then replaces it
+    (two renames, the old report restored if the second fails): an interrupted or
+    failed run leaves the previous report as it was.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, field, replace
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .errors import OptionError
+
+__all__ = ["generate_report", "ReportSettings", "BLOCKS", "CROSS_DIRECTIONS", "collect", "write_outputs"]
+
+
+@dataclass(frozen=True)
+class Block:
+    """One set of rows fitted together."""
+
+    key: str
+    data: str            # name for fitdf.datasets.load / fitdf.fit
+    core: str
+    title: str
+
+
+#: The blocks of the report: each table alone, and each core at 0 + 600 ohm jointly.
+BLOCKS = (
+    Block("B.1", "B.1", "permalloy", "Permalloy at 0 ohm (Table B.1)"),
+    Block("B.3", "B.3", "permalloy", "Permalloy at 600 ohm (Table B.3)"),
+    Block("B.2", "B.2", "deltamax", "Deltamax at 0 ohm (Table B.2)"),
+    Block("B.5", "B.5", "deltamax", "Deltamax at 600 ohm (Table B.5)"),
+    Block("B.4", "B.4", "supermalloy", "Supermalloy at 600 ohm (Table B.4)"),
+    Block("permalloy-joint", "permalloy", "permalloy", "Permalloy at 0 and 600 ohm jointly (Tables B.1 + B.3)"),
+    Block("deltamax-joint", "deltamax", "deltamax", "Deltamax at 0 and 600 ohm jointly (Tables B.2 + B.5)"),
+)
+#: Cross-impedance predictions: (core, train ohm, test ohm, train block, test block).
+CROSS_DIRECTIONS = (("permalloy", 0.0, 600.0, "B.1", "B.3"), ("permalloy", 600.0, 0.0, "B.3", "B.1"),
+                    ("deltamax", 0.0, 600.0, "B.2", "B.5"), ("deltamax", 600.0, 0.0, "B.5", "B.2"))
+#: Blocks whose fits the limit-cycle comparison uses (thesis Tables 5.1, 5.2).
+LIMIT_CYCLE_BLOCKS = ("B.1", "B.3", "B.2", "B.5")
+
+
+@dataclass(frozen=True)
+class ReportSettings:
+    """What the report computes. ``ReportSettings.for_run(quick=...)`` gives the defaults.
+
+    Attributes
+    ----------
+    models : tuple of str or None
+        Models to fit (None: every registered model).
+    blocks : tuple of str or None
+        Keys of :data:`BLOCKS` (None: all).
+    methods : tuple
+        ``("lsq",)`` or ``("lsq", "mcmc")``.
+    n_starts : int
+        Least-squares starts (the library default; fewer starts miss optima).
+    mcmc_top, cv_top, cross_top : int or None
+        MCMC, cross-validation and cross-impedance for the best N least-squares models
+        of a block (None: all models; 0: none).
+    n_steps, n_walkers : int
+        MCMC chain length and walkers (short chains are reported as not converged).
+    cv_starts : int
+        Least-squares starts per cross-validation fold.
+    cross : tuple
+        Cross-impedance directions (subset of :data:`CROSS_DIRECTIONS`).
+    limit_cycles : bool
+        Run the Tables 5.1/5.2 limit-cycle comparison when the module is available.
+    plot_top : int
+        Models drawn in the residual figure; the loci show the best two.
+    workers : int
+        Worker processes (1: serial; results are identical).
+    """
+
+    models: tuple | None = None
+    blocks: tuple | None = None
+    methods: tuple = ("lsq", "mcmc")
+    n_starts: int = 6
+    mcmc_top: int | None = 2
+    n_steps: int = 300
+    n_walkers: int = 32
+    cv_top: int | None = 2
+    cv_starts: int = 2
+    cross_top: int | None = 2
+    cross: tuple = CROSS_DIRECTIONS
+    limit_cycles: bool = True
+    plot_top: int = 3
+    workers: int = 2
+
+    @classmethod
+    def for_run(cls, quick: bool = False, methods=("lsq", "mcmc")) -> "ReportSettings":
+        """The default settings, or the quick ones: least squares only (the same models,
+        starts and seeds, so the same rankings), no cross-validation, one model per
+        cross-impedance direction; every section is still produced."""
+        methods = tuple(methods)
+        bad = set(methods) - {"lsq", "mcmc"}
+        if bad or "lsq" not in methods:
+            raise OptionError(f"methods must be ('lsq',) or ('lsq', 'mcmc'), got {methods}")
+        if quick:
+            return cls(methods=("lsq",), mcmc_top=0, cv_top=0, cross_top=1)
+        return cls(methods=methods, mcmc_top=cls.mcmc_top if "mcmc" in methods else 0)
+
+    def model_list(self) -> list[str]:
+        from .models import model_names
+
+        return list(self.models) if self.models else model_names()
+
+    def block_list(self) -> list[Block]:
+        keys = self.blocks or [b.key for b in BLOCKS]
+        unknown = set(keys) - {b.key for b in BLOCKS}
+        if unknown:
+            raise OptionError(f"unknown report block(s) {', '.join(sorted(unknown))}")
+        return [b for b in BLOCKS if b.key in keys]
+
+
+# ------------------------------------------------------------------ jobs (top level: picklable)
+def _job_lsq(data, model, seed, n_starts):
+    from .fitting import fit
+
+    return fit(data, model, method="lsq", seed=seed, n_starts=n_starts)
+
+
+def _job_mcmc(lsq, seed, n_steps, n_walkers):
+    from .mcmc import fit_mcmc
+
+    return fit_mcmc(lsq.problem, lsq, seed=seed, n_steps=n_steps, n_walkers=n_walkers)
+
+
+def _job_cv(lsq, seed, n_starts):
+    from .compare import cross_validate
+
+    return cross_validate(lsq, seed=seed, n_starts=n_starts)
+
+
+def _job_cross(core, model, train_ohm, test_ohm, seed, n_starts):
+    from .compare import cross_impedance
+
+    return cross_impedance(core, models=[model], train_ohm=train_ohm, test_ohm=test_ohm, seed=seed,
+                           n_starts=n_starts).to_dict(orient="records")
+
+
+def _job_limit_cycles(seed, models, n_starts, figdir):
+    from . import report_sections
+
+    return report_sections.limit_cycle_section(seed, models, n_starts, figdir)
+
+
+def _job_figures(kind, payload, figdir):
+    from . import report_sections
+
+    return report_sections.make_figures(kind, payload, Path(figdir))
+
+
+def _timed(fn, *args):
+    start = time.perf_counter()
+    return fn(*args), time.perf_counter() - start
+
+
+class _Runner:
+    """Runs a dict of jobs serially or in a process pool; results keyed like the jobs.
+
+    Jobs are submitted in the dict's order (put long ones first); ``seconds`` records
+    each job's run time.
+    """
+
+    def __init__(self, workers: int, progress: bool):
+        self.workers = max(1, int(workers))
+        self.progress = progress
+        self.pool = None
+        self.seconds = {}
+
+    def __enter__(self):
+        if self.workers > 1:
+            self.pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"))
+        return self
+
+    def __exit__(self, *exc):
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+        return False
+
+    def run(self, jobs: dict, desc: str) -> dict:
+        from tqdm.auto import tqdm
+
+        out = {}
+        with tqdm(total=len(jobs), desc=desc, file=sys.stderr, disable=not self.progress, leave=True) as bar:
+            if self.pool is None:
+                for key, (fn, args) in jobs.items():
+                    out[key] = _timed(fn, *args)
+                    bar.update(1)
+            else:
+                futures = {self.pool.submit(_timed, fn, *args): key for key, (fn, args) in jobs.items()}
+                for fut in as_completed(futures):
+                    out[futures[fut]] = fut.result()
+                    bar.update(1)
+        for key in jobs:
+            self.seconds[" ".join(map(str, key))] = round(out[key][1], 2)
+        return {key: out[key][0] for key in jobs}
+
+
+# ------------------------------------------------------------------ computation
+_KIND_ORDER = {"limit": 0, "mcmc": 1, "cv": 2, "cross": 3}
+
+
+def _long_first(item):
+    """Sort key of the second phase's jobs: long kinds and large blocks first (a short pool tail)."""
+    from .report_sections import expected_cost
+
+    key, (_, args) = item
+    size = expected_cost(args[0].problem.data.label, "") if key[0] in ("mcmc", "cv") else 0.0
+    return (_KIND_ORDER[key[0]], -size)
+
+
+def _top(ranked: list[str], n):
+    return list(ranked) if n is None else list(ranked)[:max(int(n), 0)]
+
+
+def _least_squares(settings, seed, runner, models, blocks) -> dict:
+    """Every model on every block; costly models and large blocks first (a short pool tail)."""
+    from .report_sections import expected_cost
+
+    order = sorted(((b, m) for b in blocks for m in models),
+                   key=lambda bm: (-expected_cost(bm[0].data, bm[1]), blocks.index(bm[0]), models.index(bm[1])))
+    jobs = {(b.key, m): (_job_lsq, (b.data, m, seed, settings.n_starts)) for b, m in order}
+    return runner.run(jobs, "least squares")
+
+
+def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -> dict:
+    """MCMC and cross-validation of each block's best models, cross-impedance, limit cycles."""
+    from . import report_sections as rs
+
+    jobs = {}
+    if settings.limit_cycles and rs.limit_cycles_available():
+        winners = rs.aicc_winners(lsq, models, LIMIT_CYCLE_BLOCKS)
+        jobs[("limit",)] = (_job_limit_cycles, (seed, winners or None, settings.n_starts, str(figdir)))
+    for b in blocks:
+        for m in _top(ranked[b.key], settings.mcmc_top if "mcmc" in settings.methods else 0):
+            jobs[("mcmc", b.key, m)] = (_job_mcmc, (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers))
+        for m in _top(ranked[b.key], settings.cv_top):
+            jobs[("cv", b.key, m)] = (_job_cv, (lsq[(b.key, m)], seed, settings.cv_starts))
+    for core, train, test, train_key, _ in settings.cross:
+        for m in _top(ranked.get(train_key, models), settings.cross_top):
+            jobs[("cross", core, train, test, m)] = (_job_cross, (core, m, train, test, seed, settings.n_starts))
+    done = runner.run(dict(sorted(jobs.items(), key=_long_first)), "MCMC, CV, cross-impedance, limit cycles")
+    out = {kind: {k[1:]: v for k, v in done.items() if k[0] == kind} for kind in ("mcmc", "cv", "cross")}
+    out["limit"] = done.get(("limit",))
+    return out
+
+
+def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
+    from . import report_sections as rs
+
+    mcmc, cross = second["mcmc"], second["cross"]
+    jobs = {}
+    for b in blocks:
+        payload = rs.block_payload(b, [lsq[(b.key, m)] for m in ranked[b.key]],
+                                   [mcmc[(b.key, m)] for m in ranked[b.key] if (b.key, m) in mcmc], settings)
+        jobs[("block", b.key)] = (_job_figures, ("block", payload, str(figdir)))
+    for core, train, test, train_key, test_key in settings.cross:
+        ms = [m for m in ranked.get(train_key, []) if (core, train, test, m) in cross]
+        if ms:   # the training fits are the report's own fits of the training block (same data, seed, starts)
+            payload = {"direction": (core, train, test, train_key, test_key),
+                       "gains": {m: cross[(core, train, test, m)][0]["calibration_gain"] for m in ms},
+                       "train": [lsq[(train_key, m)] for m in ms]}
+            jobs[("cross", core, train, test)] = (_job_figures, ("cross", payload, str(figdir)))
+    jobs[("thesis",)] = (_job_figures, ("thesis", None, str(figdir)))
+    return runner.run(jobs, "figures")
+
+
+def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) -> dict:
+    """Run every fit and figure; return the JSON-ready results (see report_render)."""
+    from . import report_sections as rs
+    from .compare import ranking_table
+
+    models, blocks = settings.model_list(), settings.block_list()
+    timing = {}
+    t0 = time.perf_counter()
+    lsq = _least_squares(settings, seed, runner, models, blocks)
+    ranked = {b.key: list(ranking_table([lsq[(b.key, m)] for m in models])["model"]) for b in blocks}
+    t1 = time.perf_counter()
+    second = _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir)
+    t2 = time.perf_counter()
+    figures = _figures(settings, runner, blocks, lsq, ranked, second, figdir)
+    timing.update({"least_squares_s": t1 - t0, "mcmc_cv_cross_limit_s": t2 - t1,
+                   "figures_s": time.perf_counter() - t2})
+
+    def pick(kind, key):
+        return {m: second[kind][(key, m)] for m in ranked[key] if (key, m) in second[kind]}
+
+    results = {
+        "blocks": {b.key: rs.block_record(b, [lsq[(b.key, m)] for m in ranked[b.key]], pick("mcmc", b.key),
+                                          pick("cv", b.key), figures[("block", b.key)]) for b in blocks},
+        "cross_impedance": rs.cross_record(settings.cross, second["cross"], figures),
+        "limit_cycles": second["limit"] if second["limit"] is not None else rs.limit_cycles_unavailable(settings),
+        "audit": rs.audit_record(),
+        "thesis_graphs": figures[("thesis",)],
+        "models": rs.model_descriptions(models),
+    }
+    results["findings"] = rs.findings(results)
+    timing["jobs_s"] = dict(runner.seconds)
+    results["timing"] = timing
+    return results
+
+
+def write_outputs(results: dict, out_dir: Path) -> None:
+    """results.json, README.md and index.html into ``out_dir`` (figures already there)."""
+    from .report_render import render_html, render_markdown
+
+    out_dir = Path(out_dir)
+    text = json.dumps(results, indent=1, allow_nan=False, ensure_ascii=False)
+    (out_dir / "results.json").write_text(text + "\n", encoding="utf-8")
+    (out_dir / "README.md").write_text(render_markdown(results), encoding="utf-8")
+    (out_dir / "index.html").write_text(render_html(results, out_dir), encoding="utf-8")
+
+
+def _swap_in(tmp: Path, out_dir: Path) -> None:
+    """Replace ``out_dir`` by ``tmp``; on failure the old ``out_dir`` is restored."""
+    if not out_dir.exists():
+        os.replace(tmp, out_dir)
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old-", dir=out_dir.parent))
+    old.rmdir()
+    os.replace(out_dir, old)
+    try:
+        os.replace(tmp, out_dir)
+    except BaseException:
+        os.replace(old, out_dir)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def generate_report(out_dir="reports", seed: int = 0, quick: bool = False, progress: bool = True,
+                    methods=("lsq", "mcmc"), *, settings: ReportSettings | None = None) -> Path:
+    """Fit, rank and plot everything and write the report into ``out_dir`` atomically.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Report folder (replaced as a whole; its parent is created if missing).
+    seed : int
+        Seed of every fit; the same seed gives the same numbers.
+    quick : bool
+        Least squares only, with the same models, starts and seed as the full run (so
+        the same rankings), no cross-validation, one model per cross-impedance
+        direction. For tests and a first look.
+    progress : bool
+        tqdm progress bars and the total run time on stderr.
+    methods : sequence
+        ``("lsq", "mcmc")`` or ``("lsq",)``; ignored when ``quick``.
+    settings : ReportSettings, optional
+        Full control (overrides ``quick`` and ``methods``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out_dir``.
+
+    Examples
+    --------
+    >>> from fitdf.report import generate_report
+    >>> generate_report("reports", seed=0)          # doctest: +SKIP
+    """
+    settings = settings or ReportSettings.for_run(quick, methods)
+    out_dir = Path(out_dir).resolve()
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
+    try:
+        os.chmod(tmp, 0o755)  # mkdtemp makes it private; the report is meant to be read
+        figdir = tmp / "figures"
+        figdir.mkdir()
+        with _Runner(settings.workers, progress) as runner:
+            results = collect(settings, seed, figdir, runner)
+        total = time.perf_counter() - start
+        results["timing"]["total_s"] = total
+        results["timing"]["workers"] = settings.workers
+        results = {"fitdf_version": __version__, "seed": int(seed), "quick": bool(quick),
+                   "settings": _settings_record(settings), **results}
+        write_outputs(results, tmp)
+        _swap_in(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    if progress:
+        print(f"fitdf report: wrote {out_dir} in {time.perf_counter() - start:.0f} s "
+              f"({settings.workers} worker{'s' if settings.workers > 1 else ''})", file=sys.stderr)
+    return out_dir
+
+
+def _settings_record(settings: ReportSettings) -> dict:
+    d = asdict(settings)
+    d["models"] = settings.model_list()
+    d["blocks"] = [b.key for b in settings.block_list()]
+    d["cross"] = [list(c) for c in settings.cross]
+    d["methods"] = list(settings.methods)
+    d.pop("workers")  # the pool size does not change any number
+    return d

@@ -1,0 +1,155 @@
+"""Fit figures (fitdf.plots.fits): each returns a Figure with the expected, labelled, non-empty axes."""
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from matplotlib.collections import PolyCollection
+from matplotlib.figure import Figure
+
+import fitdf
+from fitdf.mcmc import fit_mcmc
+from fitdf.plots import plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals
+
+
+@pytest.fixture(scope="module")
+def b1():
+    """Two quick least-squares fits of Table B.1 (0 ohm; 3, 6, 10, 20 c/s), best first."""
+    fits = [fitdf.fit("B.1", m, seed=0, n_starts=2) for m in ("proportional_width", "constant_width")]
+    return sorted(fits, key=lambda r: r.metrics["rms_complex"])
+
+
+@pytest.fixture(scope="module")
+def joint():
+    """A joint Permalloy fit (B.1 at 0 ohm + B.3 at 600 ohm; 20 c/s only at 0 ohm)."""
+    return fitdf.fit("permalloy", "proportional_width", seed=0, n_starts=2)
+
+
+@pytest.fixture(scope="module")
+def posterior(b1):
+    return fit_mcmc(b1[0].problem, b1[0], seed=0, n_steps=60, n_walkers=16)
+
+
+def _data_lines(ax):
+    return [ln for ln in ax.get_lines() if np.isfinite(np.asarray(ln.get_ydata(), float)).sum() > 0]
+
+
+def _png(fig):
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def test_plot_fit_panels_labels_and_curves(b1):
+    fig = plot_fit(b1)
+    assert isinstance(fig, Figure)
+    assert len(fig.axes) == 2 * 4                       # magnitude + phase rows, four frequencies
+    mag_row, phase_row = fig.axes[:4], fig.axes[4:]
+    assert mag_row[0].get_ylabel() == "|DF| (V/V)" and phase_row[0].get_ylabel() == "phase lead (deg)"
+    assert all(ax.get_xlabel() == "input amplitude (V)" for ax in phase_row)
+    assert [ax.get_title() for ax in mag_row] == ["f = 3 c/s", "f = 6 c/s", "f = 10 c/s", "f = 20 c/s"]
+    for ax in fig.axes:
+        lines = _data_lines(ax)
+        assert len(lines) == 3                          # two model curves + measured points
+        assert max(len(ln.get_xdata()) for ln in lines) > 50   # smooth curves, not just the rows
+    assert "Permalloy" in fig.get_suptitle() and "B.1" in fig.get_suptitle()
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "proportional_width" in labels and "constant_width" in labels
+    assert _png(fig)[:4] == b"\x89PNG"
+
+
+def test_plot_fit_band_and_frequency_subset(b1, posterior):
+    fig = plot_fit(b1, frequencies=[3.0, 10.0], band=posterior)
+    assert len(fig.axes) == 4
+    assert all(any(isinstance(c, PolyCollection) for c in ax.collections) for ax in fig.axes)
+    assert any("posterior band" in t.get_text() for t in fig.legends[0].get_texts())
+    no_band = plot_fit(posterior, band=False)
+    assert not any(isinstance(c, PolyCollection) for ax in no_band.axes for c in ax.collections)
+
+
+def test_plot_fit_joint_fit_has_a_row_pair_per_impedance(joint):
+    fig = plot_fit(joint)
+    assert len(fig.axes) == 4 * 4                       # 2 impedances x (magnitude, phase), 4 frequencies
+    blank = [ax for ax in fig.axes if not ax.axison]
+    assert len(blank) == 2                              # 20 c/s was not measured at 600 ohm
+    assert "600 ohm" in fig.axes[8].get_ylabel() and "0 ohm" in fig.axes[0].get_ylabel()
+    assert "0 and 600 ohm" in fig.get_suptitle()
+
+
+def test_plot_fit_draws_excluded_rows(b1):
+    import pandas as pd
+
+    excluded = pd.DataFrame({"input_v": [0.3], "frequency_hz": [3.0], "source_impedance_ohm": [0.0],
+                             "df_reported": [0.5], "phase_lead_deg": [30.0]})
+    fig = plot_fit(b1[0], excluded=excluded)
+    assert any(ln.get_marker() == "x" for ln in fig.axes[0].get_lines())
+    assert any("excluded" in t.get_text() for t in fig.legends[0].get_texts())
+
+
+def test_fit_result_plot_method(b1):
+    assert isinstance(b1[0].plot(frequencies=[6.0]), Figure)
+
+
+def test_critical_loci_in_the_second_quadrant(joint, b1):
+    fig = plot_critical_loci(joint)
+    assert len(fig.axes) == 2                           # one Nyquist plane per source impedance
+    for ax in fig.axes:
+        assert ax.get_xlabel() == "Re(-1/DF)" and ax.get_ylabel() == "Im(-1/DF)"
+        points = [ln for ln in ax.get_lines() if ln.get_marker() == "o" and ln.get_linestyle() == "None"]
+        assert points
+        x = np.concatenate([ln.get_xdata() for ln in points])
+        y = np.concatenate([ln.get_ydata() for ln in points])
+        assert np.all(x < 0) and np.mean(y >= 0) > 0.9  # the measured DF leads
+        curves = [ln for ln in ax.get_lines() if len(ln.get_xdata()) > 50]
+        assert curves
+    single = plot_critical_loci(b1, top=2)
+    assert len(single.axes) == 1
+    styles = {ln.get_linestyle() for ln in single.axes[0].get_lines() if len(ln.get_xdata()) > 50}
+    assert styles == {"-", "--"}
+
+
+def test_critical_loci_into_given_axes(b1, joint):
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert plot_critical_loci(b1, ax=ax) is fig
+    with pytest.raises(ValueError, match="single source impedance"):
+        plot_critical_loci(joint, ax=ax)
+
+
+def test_plot_residuals(b1):
+    fig = plot_residuals(b1, top=3)
+    assert len(fig.axes) == 2 * 2                       # two models given
+    assert fig.axes[0].get_ylabel().startswith("|DF| residual")
+    assert fig.axes[2].get_ylabel().startswith("phase-lead residual")
+    for ax in fig.axes:
+        assert _data_lines(ax)
+    assert "proportional_width" in fig.axes[0].get_title() + fig.axes[1].get_title()
+    assert len(plot_residuals(b1, top=1).axes) == 2
+
+
+def test_plot_corner(posterior, b1):
+    fig = plot_corner(posterior, truths=b1[0])
+    P = posterior.problem.ndim
+    assert len(fig.axes) == P * P
+    labels = [ax.get_xlabel() for ax in fig.axes if ax.get_xlabel()]
+    assert any(lbl.startswith("log10 ") for lbl in labels)  # log-scaled parameters shown as log10
+    assert "converged" in fig.get_suptitle()
+    assert _png(fig)[:4] == b"\x89PNG"
+    with pytest.raises(TypeError, match="PosteriorResult"):
+        plot_corner(b1[0])
+
+
+def test_plot_cross_impedance(b1):
+    fig = plot_cross_impedance(b1, "B.3", calibration_gains={"proportional_width": 1.0})
+    assert len(fig.axes) == 4 * 4
+    bottom_mag = fig.axes[8]
+    assert "600 ohm" in bottom_mag.get_ylabel()
+    dashed = [ln for ln in bottom_mag.get_lines() if ln.get_linestyle() == "--"]
+    assert len(dashed) == 2                             # one prediction per model
+    assert "predicting 600 ohm" in fig.get_suptitle()
+
+
+def test_no_results_is_an_error():
+    with pytest.raises(ValueError, match="no results"):
+        plot_fit([])

@@ -1,0 +1,253 @@
+"""The generated report: files, self-containedness, results.json, atomic writes, determinism."""
+from __future__ import annotations
+
+import json
+import re
+import sys
+import types
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import fitdf.report_render as render
+import fitdf.report_sections as sections
+from fitdf.report import BLOCKS, ReportSettings, generate_report
+
+REPO = Path(__file__).resolve().parents[1]
+COMMITTED = REPO / "reports" / "results.json"
+
+#: A report small enough for unit tests; every section is still produced.
+TINY = ReportSettings(models=("proportional_width",), blocks=("B.1", "permalloy-joint"), n_starts=2,
+                      mcmc_top=1, n_steps=60, n_walkers=16, cv_top=1, cv_starts=1, cross_top=1,
+                      cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),), workers=1)
+#: Smaller still: fits of one block, no MCMC (atomic-write tests).
+MINI = ReportSettings(models=("proportional_width",), blocks=("B.1",), n_starts=1, mcmc_top=0, cv_top=0,
+                      cross=(), limit_cycles=False, workers=1)
+
+
+def _fake_limitcycle_module():
+    """Stand-in for fitdf.limitcycle, so the section is tested whatever that module's state."""
+    def thesis_limit_cycle_comparison(seed=0, models=None, n_starts=6):
+        df = pd.DataFrame({"core": ["permalloy"], "source_impedance_ohm": [0.0], "table": ["B.1"],
+                           "model": [models[0] if models else "x"], "system_gain": [20.0], "amplitude_v": [1.2],
+                           "amplitude_pred": [1.1], "amplitude_ratio": [1.1 / 1.2], "omega_rad_s": [3.0],
+                           "omega_pred": [3.3], "omega_ratio": [1.1]})
+        df.attrs.update({"alpha": 1.5, "beta": 2.0, "scales": {"joint": {"alpha": 1.5, "rms_phase_deg": 3.0}}})
+        return df
+
+    return types.SimpleNamespace(thesis_limit_cycle_comparison=thesis_limit_cycle_comparison)
+
+
+_PNG = bytes.fromhex("89504e470d0a1a0a0000000d4948445200000001000000010806000000"
+                     "1f15c4890000000d49444154789c6360000002000100e5270ad60000000049454e44ae426082")
+
+
+@pytest.fixture
+def stub_figures(monkeypatch):
+    """Replace the (slow) figures by 1-pixel PNGs: for tests about the numbers and the file handling."""
+    def make_figures(kind, payload, figdir):
+        names = {"thesis": ["thesis_4_1"], "cross": ["cross"]}.get(kind, ["fit", "loci", "residuals", "corner"])
+        paths = {}
+        for n in names:
+            name = f"{payload['block'].key if kind == 'block' else kind}_{n}.png"
+            (figdir / name).write_bytes(_PNG)
+            paths[n] = f"figures/{name}"
+        if kind == "thesis":
+            return [{"graph": "4.1", "path": paths["thesis_4_1"], "title": "stub"}]
+        return paths["cross"] if kind == "cross" else paths
+
+    monkeypatch.setattr(sections, "make_figures", make_figures)
+
+
+def _strip_timing(results: dict) -> dict:
+    return {k: v for k, v in results.items() if k != "timing"}
+
+
+@pytest.fixture(scope="module")
+def tiny_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rep") / "report"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(sys.modules, "fitdf.limitcycle", _fake_limitcycle_module())
+        generate_report(out, seed=0, progress=False, settings=TINY)
+    return out
+
+
+@pytest.fixture(scope="module")
+def tiny_results(tiny_report):
+    return json.loads((tiny_report / "results.json").read_text())
+
+
+def test_report_writes_every_file(tiny_report, tiny_results):
+    for name in ("README.md", "index.html", "results.json"):
+        assert (tiny_report / name).stat().st_size > 1000
+    figures = {p.relative_to(tiny_report).as_posix() for p in (tiny_report / "figures").rglob("*.png")}
+    for key in TINY.blocks:
+        for kind in ("fit", "loci", "residuals", "corner"):
+            assert tiny_results["blocks"][key]["figures"][kind] in figures
+    assert tiny_results["cross_impedance"][0]["figure"] in figures
+    assert len([f for f in figures if f.startswith("figures/thesis/")]) == 7
+    # Markdown links every figure relatively, and only existing ones
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", (tiny_report / "README.md").read_text())
+    assert links and set(links) <= figures and not any(link.startswith(("/", "http")) for link in links)
+    assert not list(tiny_report.parent.glob(".report.*")), "temporary directories left behind"
+
+
+def test_html_is_self_contained(tiny_report):
+    page = (tiny_report / "index.html").read_text()
+    assert page.startswith("<!DOCTYPE html>")
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", page, re.I)
+    assert "http://" not in page and "https://" not in page
+    assert "<script" not in page.lower() and "<link" not in page.lower()
+    imgs = re.findall(r'<img src="([^"]+)"', page)
+    assert imgs and all(src.startswith("data:image/png;base64,") for src in imgs)
+    md_images = (tiny_report / "README.md").read_text().count("![")
+    assert len(imgs) == md_images
+    assert page.count("<table") >= 10
+
+
+def test_results_json_holds_rankings_and_settings(tiny_results):
+    r = tiny_results
+    assert r["seed"] == 0 and r["fitdf_version"] and r["settings"]["models"] == ["proportional_width"]
+    assert r["timing"]["total_s"] > 0
+    for key in TINY.blocks:
+        rec = r["blocks"][key]
+        assert rec["order_lsq"] == ["proportional_width"]
+        row = rec["ranking_lsq"][0]
+        for metric in ("rms_complex", "rms_magnitude", "rms_phase_deg", "redchi", "aicc", "bic", "cv_rms_complex"):
+            assert isinstance(row[metric], float), (key, metric)
+        assert rec["ranking_mcmc"][0]["looic"] is not None
+        diag = rec["fits_mcmc"]["proportional_width"]["diagnostics"]
+        assert {"tau_max", "steps_over_tau", "rhat_max", "ess_bulk_min", "acceptance_mean", "converged"} <= set(diag)
+        assert rec["fits_lsq"]["proportional_width"]["parameters"]
+        assert rec["data_summary"]["rows_used"] == len(rec["fits_lsq"]["proportional_width"]["rows"]["input_v"])
+    assert r["blocks"]["permalloy-joint"]["source_impedance_ohm"] == [0.0, 600.0]
+    assert r["cross_impedance"][0]["rows"][0]["predict_rms_complex"] > 0
+    assert r["limit_cycles"]["available"] and r["limit_cycles"]["rows"][0]["table"] == "B.1"
+    assert r["findings"] and any("fits best" in f for f in r["findings"])
+    assert r["audit"]["tables"] and r["audit"]["findings"]
+
+
+def test_markdown_sections(tiny_report, tiny_results):
+    md = (tiny_report / "README.md").read_text()
+    for heading in ("## Findings", "## Summary", "### Ranking", "### Parameters", "### MCMC diagnostics",
+                    "## Cross-impedance prediction", "## Limit cycles (Tables 5.1, 5.2)",
+                    "## Audit of the printed tables (Appendix B)", "## The thesis's computed curves (Graphs 4.1-4.7)"):
+        assert heading in md, heading
+    assert f"seed {tiny_results['seed']}" in md and "run time" in md
+    # every table row has as many cells as its header
+    for block in re.findall(r"((?:^\|.*\|\n)+)", md, re.M):
+        lines = block.strip().splitlines()
+        width = len(re.split(r"(?<!\\)\|", lines[0]))
+        assert all(len(re.split(r"(?<!\\)\|", ln)) == width for ln in lines), lines[0]
+    # contents links resolve to headings (GitHub anchors)
+    anchors = {render.slug(h) for h in re.findall(r"^#+ (.*)$", md, re.M)}
+    for target in re.findall(r"\]\(#([^)]+)\)", md):
+        assert target in anchors, target
+
+
+def test_limit_cycle_section_without_the_module(monkeypatch):
+    monkeypatch.setitem(sys.modules, "fitdf.limitcycle", None)   # import fails
+    assert not sections.limit_cycles_available()
+    rec = sections.limit_cycles_unavailable()
+    blocks = render._limit_blocks({"limit_cycles": rec})
+    assert "not available" in render._md(blocks)[2]
+
+
+def test_failed_run_leaves_the_old_report_intact(tmp_path, monkeypatch, stub_figures):
+    out = tmp_path / "reports"
+    out.mkdir()
+    (out / "README.md").write_text("old report\n")
+    (out / "figures").mkdir()
+    (out / "figures" / "old.png").write_bytes(b"old")
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    real_render_html = render.render_html
+    monkeypatch.setattr(render, "render_html", boom)    # fails after the fits, figures and results.json
+    with pytest.raises(RuntimeError, match="disk full"):
+        generate_report(out, progress=False, settings=MINI)
+    assert (out / "README.md").read_text() == "old report\n"
+    assert sorted(p.name for p in out.rglob("*")) == ["README.md", "figures", "old.png"]
+    assert [p.name for p in tmp_path.iterdir()] == ["reports"]      # no temporary directory left
+
+    monkeypatch.setattr(render, "render_html", real_render_html)
+    generate_report(out, progress=False, settings=MINI)              # a good run replaces it whole
+    assert not (out / "figures" / "old.png").exists()
+    assert "fitdf comparison report" in (out / "README.md").read_text()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["reports"]
+
+
+def test_interrupted_swap_restores_the_old_report(tmp_path, monkeypatch):
+    import fitdf.report as report
+
+    out = tmp_path / "reports"
+    out.mkdir()
+    (out / "README.md").write_text("old report\n")
+    new = tmp_path / "new"
+    new.mkdir()
+    real_replace = report.os.replace
+
+    def flaky_replace(src, dst):
+        if Path(src) == new:
+            raise OSError("interrupted")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(report.os, "replace", flaky_replace)
+    with pytest.raises(OSError):
+        report._swap_in(new, out)
+    assert (out / "README.md").read_text() == "old report\n"
+
+
+def test_same_seed_same_numbers(tmp_path, stub_figures):
+    settings = ReportSettings(models=("proportional_width",), blocks=("B.1",), n_starts=2, mcmc_top=1, n_steps=50,
+                              n_walkers=16, cv_top=1, cv_starts=1, cross=(), limit_cycles=False, workers=1)
+    a = generate_report(tmp_path / "a", seed=3, progress=False, settings=settings)
+    b = generate_report(tmp_path / "b", seed=3, progress=False, settings=settings)
+    ra, rb = (json.loads((p / "results.json").read_text()) for p in (a, b))
+    assert _strip_timing(ra) == _strip_timing(rb)
+    assert (a / "README.md").read_text().split("## Contents")[1] == (b / "README.md").read_text().split("## Contents")[1]
+
+
+def test_quick_settings_keep_the_ranking_configuration():
+    full, quick = ReportSettings.for_run(), ReportSettings.for_run(quick=True)
+    assert quick.methods == ("lsq",) and quick.mcmc_top == 0
+    assert (quick.models, quick.blocks, quick.n_starts) == (full.models, full.blocks, full.n_starts)
+    assert ReportSettings.for_run(methods=("lsq",)).mcmc_top == 0
+    with pytest.raises(Exception, match="methods"):
+        ReportSettings.for_run(methods=("mcmc",))
+
+
+@pytest.mark.slow
+def test_pool_gives_the_serial_numbers(tmp_path):
+    from dataclasses import replace
+
+    settings = replace(TINY, blocks=("B.1", "B.3"), limit_cycles=False)
+    serial = generate_report(tmp_path / "serial", progress=False, settings=settings)
+    pooled = generate_report(tmp_path / "pooled", progress=False, settings=replace(settings, workers=2))
+    ra, rb = (json.loads((p / "results.json").read_text()) for p in (serial, pooled))
+    assert _strip_timing(ra) == _strip_timing(rb)
+
+
+def _orders_agree(order_a, order_b, rms: dict, rtol=1e-6) -> bool:
+    """Same model order, except that models whose RMS residuals agree to ``rtol`` may swap."""
+    if sorted(order_a) != sorted(order_b):
+        return False
+    for a, b in zip(order_a, order_b):
+        if a != b and not np.isclose(rms[a], rms[b], rtol=rtol, atol=0):
+            return False
+    return True
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not COMMITTED.exists(), reason="no committed reports/results.json")
+def test_quick_run_reproduces_the_committed_rankings(tmp_path):
+    committed = json.loads(COMMITTED.read_text())
+    out = generate_report(tmp_path / "quick", seed=committed["seed"], quick=True, progress=False)
+    fresh = json.loads((out / "results.json").read_text())
+    assert set(fresh["blocks"]) == set(committed["blocks"]) == {b.key for b in BLOCKS}
+    for key, rec in committed["blocks"].items():
+        rms = {row["model"]: row["rms_complex"] for row in fresh["blocks"][key]["ranking_lsq"]}
+        assert _orders_agree(fresh["blocks"][key]["order_lsq"], rec["order_lsq"], rms), key

@@ -1,0 +1,116 @@
+"""The committed HTML report, opened as a reader would: headless Chromium renders reports/index.html.
+
+Checks what can be checked from outside the browser: the DOM Chromium builds holds the
+ranking tables and the figures as ``data:`` PNGs (each decodes as a valid PNG), nothing
+points outside the file, the browser logs no page errors, and the screenshots show
+content (kept in ``test-artifacts/`` for a human to look at).
+"""
+from __future__ import annotations
+
+import base64
+import io
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.browser
+
+REPO = Path(__file__).resolve().parents[1]
+REPORT = REPO / "reports" / "index.html"
+ARTIFACTS = REPO / "test-artifacts"
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+def _chromium():
+    for name in ("chromium", "chromium-browser", "/usr/bin/chromium"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+CHROMIUM = _chromium()
+needs = pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium not installed (apt-get install chromium)")
+needs_report = pytest.mark.skipif(not REPORT.exists(), reason="reports/index.html not generated (run `fitdf report`)")
+
+
+def _run(tmp_path, *args, timeout=120):
+    cmd = [CHROMIUM, *FLAGS, f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+
+
+def _page_errors(stderr: str) -> list[str]:
+    """Console errors and failed loads of the page (the browser's own dbus/gpu chatter is not the page's)."""
+    return [ln for ln in stderr.splitlines()
+            if re.search(r"CONSOLE|Failed to load resource|Uncaught|net::ERR_", ln) and "ERR_INTERNET" not in ln]
+
+
+@pytest.fixture(scope="module")
+def dom(tmp_path_factory):
+    if CHROMIUM is None or not REPORT.exists():
+        pytest.skip("needs Chromium and reports/index.html")
+    tmp = tmp_path_factory.mktemp("chromium")
+    proc = _run(tmp, "--dump-dom", REPORT.as_uri())
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert not _page_errors(proc.stderr), _page_errors(proc.stderr)
+    return proc.stdout
+
+
+@needs
+@needs_report
+def test_dom_has_rankings_and_embedded_figures(dom):
+    assert "fitdf comparison report" in dom
+    tables = re.findall(r"<table>.*?</table>", dom, re.S)
+    rankings = [t for t in tables if "<th>RMS complex</th>" in t and "<th>AICc</th>" in t]
+    assert len(rankings) >= 7                           # one least-squares ranking per block at least
+    srcs = re.findall(r'<img src="([^"]*)"', dom)
+    assert len(srcs) >= 7 * 3 + 7                       # fit, loci, residuals per block; thesis graphs
+    for src in srcs:
+        assert src.startswith("data:image/png;base64,")
+        png = base64.b64decode(src.split(",", 1)[1], validate=True)
+        assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
+    assert not re.search(r"""(src|href)=["'](https?:)?//""", dom)
+
+
+@needs
+@needs_report
+def test_embedded_pngs_decode(dom):
+    from matplotlib import image
+
+    srcs = re.findall(r'<img src="data:image/png;base64,([^"]*)"', dom)
+    for src in srcs[:12]:
+        pixels = image.imread(io.BytesIO(base64.b64decode(src)), format="png")
+        assert pixels.ndim == 3 and min(pixels.shape[:2]) > 200
+
+
+def _screenshot(tmp_path, url: str, name: str, height: int) -> Path:
+    ARTIFACTS.mkdir(exist_ok=True)
+    path = ARTIFACTS / name
+    path.unlink(missing_ok=True)
+    proc = _run(tmp_path, f"--screenshot={path}", f"--window-size=1280,{height}", "--hide-scrollbars", url)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert not _page_errors(proc.stderr), _page_errors(proc.stderr)
+    assert path.exists() and path.stat().st_size > 20_000
+    return path
+
+
+@needs
+@needs_report
+def test_screenshots_show_the_report(tmp_path):
+    from matplotlib import image
+
+    top = _screenshot(tmp_path, REPORT.as_uri(), "report_top.png", 2000)
+    pixels = image.imread(top)
+    assert pixels.shape[:2] == (2000, 1280)
+    ink = np.mean(np.any(pixels[..., :3] < 0.9, axis=-1))
+    assert ink > 0.02                                   # text and tables, not a blank page
+    # A tall window reaches the first block's figures (headless screenshots ignore #anchors).
+    tall = _screenshot(tmp_path, REPORT.as_uri(), "report_first_block.png", 6000)
+    rgb = (image.imread(tall)[2000:, :, :3] * 255).astype(int)
+    colours = np.unique(rgb.reshape(-1, 3)[::7], axis=0)
+    assert len(colours) > 200                           # figures (colour curves, bands) were rendered
