@@ -251,3 +251,22 @@ def test_quick_run_reproduces_the_committed_rankings(tmp_path):
     for key, rec in committed["blocks"].items():
         rms = {row["model"]: row["rms_complex"] for row in fresh["blocks"][key]["ranking_lsq"]}
         assert _orders_agree(fresh["blocks"][key]["order_lsq"], rec["order_lsq"], rms), key
+
+
+@pytest.mark.skipif(not COMMITTED.exists(), reason="no committed reports/results.json")
+def test_quick_run_reproduces_committed_rankings_of_two_tables(tmp_path):
+    """The fast (CI) version of the check above: the quick configuration on two tables."""
+    from dataclasses import replace
+
+    committed = json.loads(COMMITTED.read_text())
+    settings = replace(ReportSettings.for_run(quick=True), blocks=("B.1", "B.4"), limit_cycles=False, cross=(),
+                       workers=2)
+    out = generate_report(tmp_path / "quick2", seed=committed["seed"], progress=False, settings=settings)
+    fresh = json.loads((out / "results.json").read_text())
+    assert set(fresh["blocks"]) == {"B.1", "B.4"}
+    for key, rec in fresh["blocks"].items():
+        rms = {row["model"]: row["rms_complex"] for row in rec["ranking_lsq"]}
+        assert _orders_agree(rec["order_lsq"], committed["blocks"][key]["order_lsq"], rms), key
+        committed_rms = {row["model"]: row["rms_complex"] for row in committed["blocks"][key]["ranking_lsq"]}
+        for model, value in rms.items():  # same numbers, not just the same order
+            assert value == pytest.approx(committed_rms[model], rel=1e-6), (key, model)
