@@ -17,6 +17,10 @@ Diagnostics
     Integrated autocorrelation time per parameter (emcee), a warning when the chain is
     shorter than 50 times it, acceptance fraction, and R-hat and bulk ESS from ArviZ
     (walkers as chains), PSIS-LOO and WAIC from the pointwise log-likelihood.
+Point estimate
+    ``values``, residuals and metrics use the draw of highest posterior; intervals are
+    posterior percentiles (a warning says when the per-parameter medians fit far worse,
+    the sign of a multimodal posterior).
 """
 from __future__ import annotations
 
@@ -181,8 +185,18 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     warns += [f"ArviZ: {c}" for c in caught if "pareto" not in c.lower()]
 
     nat = problem.to_natural(flat[:, :P])
+    # Point estimate: the draw of highest posterior (MAP). The per-parameter median can
+    # combine different modes of a multimodal posterior into a point that fits none.
+    log_prob = sampler.get_log_prob(discard=burn)
+    best_draw = full_chain.reshape(-1, ndim)[int(np.argmax(log_prob.reshape(-1)))]
     median_internal = np.median(flat[:, :P], axis=0)
-    values = {k: float(v) for k, v in problem.full_natural(median_internal).items()}
+    point = best_draw[:P]
+    chi2_point = float(np.sum(problem.weighted_residuals(point) ** 2))
+    chi2_median = float(np.sum(problem.weighted_residuals(median_internal) ** 2))
+    if chi2_median > chi2_point + 2 * P + 10:
+        warns.append(f"posterior is multimodal or strongly skewed: the per-parameter medians fit far worse "
+                     f"(chi2 {chi2_median:.0f}) than the best draw (chi2 {chi2_point:.0f}); values are the best draw")
+    values = {k: float(v) for k, v in problem.full_natural(point).items()}
     intervals = {}
     for i, s in enumerate(problem.specs):
         q = np.percentile(nat[:, i], [2.5, 16, 50, 84, 97.5])
@@ -194,16 +208,17 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     corr = pd.DataFrame(np.corrcoef(flat[:, :P], rowvar=False).reshape(P, P), index=problem.names,
                         columns=problem.names)
 
-    predicted = problem.predict(median_internal)
+    predicted = problem.predict(point)
     metrics = {"n_points": problem.data.n, "n_params": P,
                **residual_metrics(predicted, problem.data.measured),
-               **information_criteria(problem.weighted_residuals(median_internal), P),
+               **information_criteria(problem.weighted_residuals(point), P),
                **{k: diag[k] for k in ("looic", "looic_se", "waic", "waic_se", "elpd_loo", "elpd_loo_se", "p_loo")}}
     info = {"seed": seed, "n_steps": n_steps, "n_walkers": n_walkers, "start": "least squares",
+            "point_estimate": "highest-posterior draw (MAP)",
             "noise_priors": "log-uniform: sigma_magnitude 0.001..1, sigma_phase 0.1..50 deg",
             "fixed": dict(problem.fixed)}
     return PosteriorResult(model=problem.model.name, chain=problem.chain.name, method="mcmc",
                            label=problem.data.label, values=values, stderr=stderr, intervals=intervals,
                            correlations=corr, metrics=metrics, residuals=residual_table(problem, predicted),
-                           warnings=warns, info=info, problem=problem, internal=median_internal,
+                           warnings=warns, info=info, problem=problem, internal=point,
                            samples=chain[..., :P], noise_samples=10 ** chain[..., P:], diagnostics=diag)

@@ -158,6 +158,9 @@ class FitResult:
 class PosteriorResult(FitResult):
     """An MCMC fit: the FitResult fields from the posterior, plus the chain and diagnostics.
 
+    ``values`` (and the residuals and metrics) are the highest-posterior draw; the
+    intervals and ``stderr`` come from the posterior samples.
+
     ``samples`` are internal coordinates of shape ``(n_draws, n_walkers, P)`` after
     burn-in and thinning; ``noise_samples`` the fitted noise scales.
     """
