@@ -13,6 +13,7 @@ import traceback
 
 from . import __version__
 from .errors import FitdfError
+from .jsonutil import clean
 
 EXIT_USAGE = 2
 EXIT_INTERNAL = 1
@@ -44,26 +45,13 @@ def _json_default(o):
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
-def _clean(records):
-    """NaN/inf -> None so the JSON is strict."""
-    import math
-
-    if isinstance(records, dict):
-        return {k: _clean(v) for k, v in records.items()}
-    if isinstance(records, list):
-        return [_clean(v) for v in records]
-    if isinstance(records, float) and not math.isfinite(records):
-        return None
-    return records
-
-
 # ------------------------------------------------------------------ commands
 def cmd_datasets(args):
     from . import datasets
 
     table = datasets.summary()
     if args.json:
-        _emit_json({"datasets": datasets.names(), "appendix_b": _clean(table.to_dict(orient="records"))})
+        _emit_json({"datasets": datasets.names(), "appendix_b": clean(table.to_dict(orient="records"))})
         return 0
     print("Bundled datasets: " + ", ".join(datasets.names()))
     print("\nAppendix B rows per table and frequency:")
@@ -78,7 +66,7 @@ def cmd_audit(args):
     flagged = frame[frame["flag"] != "ok"]
     factors = audit.block_factors(frame) if "h1_output_v" in frame else None
     if args.json:
-        _emit_json(_clean({"rows": len(frame), "flagged": flagged.to_dict(orient="records"),
+        _emit_json(clean({"rows": len(frame), "flagged": flagged.to_dict(orient="records"),
                            "block_factors": None if factors is None else factors.to_dict(orient="records"),
                            "findings": audit.findings(frame)}))
         return 0
@@ -149,7 +137,7 @@ def cmd_fit(args):
     results = table.attrs.pop("results")
     best = next(r for r in results if (r.model, r.chain, r.method) == tuple(table.iloc[0][["model", "chain", "method"]]))
     if args.json:
-        _emit_json(_clean({"data": str(args.data), "seed": args.seed, "rank_by": args.rank_by,
+        _emit_json(clean({"data": str(args.data), "seed": args.seed, "rank_by": args.rank_by,
                            "ranking": table.to_dict(orient="records"),
                            "fits": [r.to_dict() for r in results]}))
         return 0
@@ -181,7 +169,7 @@ def cmd_limit_cycle(args):
     result = limit_cycle_command(args.data, args.plant, args.gain, args.source_impedance, model=args.model,
                                  chain=args.chain, seed=args.seed, plot=args.plot, time_scale=args.time_scale)
     if args.json:
-        _emit_json(_clean(result))
+        _emit_json(clean(result))
         return 0
     print(format_limit_cycle_table(result))
     if args.plot:

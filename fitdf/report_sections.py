@@ -15,36 +15,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .jsonutil import clean
+
 __all__ = ["block_record", "block_payload", "make_figures", "cross_record", "audit_record", "findings",
            "limit_cycle_section", "limit_cycles_available", "limit_cycles_unavailable", "model_descriptions",
            "aicc_winners", "expected_cost", "clean"]
+
 
 _ROWS = {"B.1": 37, "B.2": 30, "B.3": 36, "B.4": 63, "B.5": 89, "permalloy": 73, "deltamax": 119}
 _MODEL_COST = {"cubic_hc": 4.0, "rayleigh": 2.5, "constant_width": 2.0, "frequency_hc": 1.5}
 #: Names under which fitdf.plots.limitcycle may provide the Tables 5.1/5.2 figure.
 LIMIT_CYCLE_PLOTS = ("plot_thesis_limit_cycle_comparison", "plot_limit_cycle_comparison", "plot_thesis_comparison")
-
-
-def clean(obj):
-    """NaN/inf -> None, numpy -> Python, tuples -> lists (strict JSON)."""
-    if isinstance(obj, dict):
-        return {str(k): clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [clean(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return clean(obj.tolist())
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if obj is None or isinstance(obj, str):
-        return obj
-    if isinstance(obj, pd.Timestamp):
-        return obj.isoformat()
-    return str(obj)
 
 
 def expected_cost(data: str, model: str) -> float:

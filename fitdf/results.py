@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from .jsonutil import clean
 from .metrics import phase_difference_deg, residual_metrics
 
 __all__ = ["FitResult", "PosteriorResult", "residual_table"]
@@ -139,7 +140,7 @@ class FitResult:
 
     def to_dict(self) -> dict:
         """Plain-Python (JSON-ready) record of the result."""
-        return _jsonable({
+        return clean({
             "model": self.model, "chain": self.chain, "method": self.method, "label": self.label,
             "parameters": self.parameter_table().to_dict(orient="records"),
             "correlations": self.correlations.to_dict(),
@@ -192,22 +193,5 @@ class PosteriorResult(FitResult):
 
     def to_dict(self) -> dict:
         d = super().to_dict()
-        d["diagnostics"] = _jsonable(self.diagnostics)
+        d["diagnostics"] = clean(self.diagnostics)
         return d
-
-
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        v = float(obj)
-        return v if np.isfinite(v) else None
-    return obj
