@@ -26,10 +26,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import emcee  # noqa: E402
 import lmfit  # noqa: E402
 
-from fitdf.fitting import resolve_data  # noqa: E402
-from fitdf.likelihood import FitProblem  # noqa: E402
-from fitdf.lsq import fit_lsq  # noqa: E402
-from fitdf.mcmc import fit_mcmc  # noqa: E402
+from fitdf.inference.api import resolve_data  # noqa: E402
+from fitdf.inference.problem import FitProblem  # noqa: E402
+from fitdf.inference.lsq import fit_lsq  # noqa: E402
+from fitdf.inference.mcmc import fit_mcmc  # noqa: E402
 from fitdf.models import model_names  # noqa: E402
 
 

@@ -15,21 +15,21 @@ try:
 except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0.1.0"
 
-from .errors import DataError, FitdfError, ModelError, OptionError
+from fitdf.errors import DataError, FitdfError, ModelError, OptionError
 
 _LAZY = {
-    "fit": ("fitdf.fitting", "fit"),
-    "compare": ("fitdf.compare", "compare"),
-    "cross_impedance": ("fitdf.compare", "cross_impedance"),
-    "limit_cycles": ("fitdf.limitcycle", "limit_cycles"),
+    "fit": ("fitdf.inference.api", "fit"),
+    "compare": ("fitdf.inference.ranking", "compare"),
+    "cross_impedance": ("fitdf.inference.ranking", "cross_impedance"),
+    "limit_cycles": ("fitdf.loop.harmonic", "limit_cycles"),
     "get_model": ("fitdf.models", "get_model"),
     "model_names": ("fitdf.models", "model_names"),
-    "get_chain": ("fitdf.chain", "get_chain"),
-    "FitResult": ("fitdf.results", "FitResult"),
-    "PosteriorResult": ("fitdf.results", "PosteriorResult"),
-    "NoiseModel": ("fitdf.fitdata", "NoiseModel"),
-    "datasets": ("fitdf.datasets", None),
-    "audit": ("fitdf.audit", None),
+    "get_chain": ("fitdf.chains", "get_chain"),
+    "FitResult": ("fitdf.inference.results", "FitResult"),
+    "PosteriorResult": ("fitdf.inference.results", "PosteriorResult"),
+    "NoiseModel": ("fitdf.data.fitdata", "NoiseModel"),
+    "datasets": ("fitdf.data.datasets", None),
+    "audit": ("fitdf.data.audit", None),
     "models": ("fitdf.models", None),
     "plots": ("fitdf.plots", None),
     "report": ("fitdf.report", None),

@@ -11,9 +11,9 @@ import json
 import sys
 import traceback
 
-from . import __version__
-from .errors import FitdfError
-from .jsonutil import clean
+from fitdf import __version__
+from fitdf.errors import FitdfError
+from fitdf._json import clean
 
 EXIT_USAGE = 2
 EXIT_INTERNAL = 1
@@ -47,7 +47,7 @@ def _json_default(o):
 
 # ------------------------------------------------------------------ commands
 def cmd_datasets(args):
-    from . import datasets
+    from fitdf.data import datasets
 
     table = datasets.summary()
     if args.json:
@@ -60,7 +60,8 @@ def cmd_datasets(args):
 
 
 def cmd_audit(args):
-    from . import audit, datasets
+    from fitdf.data import audit
+    from fitdf.data import datasets
 
     frame = audit.audit(datasets.load(args.data))
     flagged = frame[frame["flag"] != "ok"]
@@ -87,8 +88,8 @@ def cmd_audit(args):
 
 
 def cmd_models(args):
-    from .chain import CHAINS
-    from .models import MODELS, model_names
+    from fitdf.chains import CHAINS
+    from fitdf.models import MODELS, model_names
 
     model_names()
     if args.json:
@@ -115,8 +116,8 @@ def _ranking_text(table):
 
 
 def cmd_fit(args):
-    from .compare import compare
-    from .models import model_names
+    from fitdf.inference.ranking import compare
+    from fitdf.models import model_names
 
     models = args.models or model_names()
     methods = {"lsq": 1, "mcmc": 1, "both": 2}[args.method]
@@ -156,7 +157,7 @@ def cmd_fit(args):
 
 
 def cmd_report(args):
-    from .report import generate_report
+    from fitdf.report.build import generate_report
 
     out = generate_report(out_dir=args.out, seed=args.seed, quick=args.quick, progress=not args.quiet)
     print(f"report written to {out}/ (README.md, index.html, results.json, figures/)")
@@ -164,7 +165,7 @@ def cmd_report(args):
 
 
 def cmd_limit_cycle(args):
-    from .limitcycle import format_limit_cycle_table, limit_cycle_command
+    from fitdf.loop.harmonic import format_limit_cycle_table, limit_cycle_command
 
     result = limit_cycle_command(args.data, args.plant, args.gain, args.source_impedance, model=args.model,
                                  chain=args.chain, seed=args.seed, plot=args.plot, time_scale=args.time_scale)
@@ -179,7 +180,7 @@ def cmd_limit_cycle(args):
 
 # ------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
-    from .compare import RANK_COLUMNS
+    from fitdf.inference.ranking import RANK_COLUMNS
 
     p = _Parser(prog="fitdf", description="Fit, rank and use describing-function models of hysteretic elements.",
                 formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -250,8 +251,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _validate(args):
-    from .errors import OptionError
-    from .models import model_names
+    from fitdf.errors import OptionError
+    from fitdf.models import model_names
 
     if getattr(args, "model", None) and args.model not in model_names():
         raise OptionError(f"unknown model {args.model!r}; known: {', '.join(model_names())}")

@@ -3,16 +3,17 @@
 A :class:`ParamSpec` says what a parameter means (unit, thesis equation), where it
 may lie (bounds, used as the prior support and by the global optimiser) and where a
 fit should start. Models and chains only *declare* parameters; the fitters turn them
-into :class:`lmfit.Parameters` with :func:`to_lmfit`.
+into their own coordinates (:meth:`ParamSpec.to_internal`). :class:`Parametrized` is
+what a law and a chain share: their declared parameters, listed and described.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 
-__all__ = ["ParamSpec", "to_lmfit", "theta_from_mapping", "split_theta"]
+__all__ = ["ParamSpec", "Parametrized", "split_theta"]
 
 
 @dataclass(frozen=True)
@@ -70,24 +71,6 @@ class ParamSpec:
         return (float(np.log10(lo)), float(np.log10(hi))) if self.log else (lo, hi)
 
 
-def to_lmfit(specs: Iterable[ParamSpec], values: Mapping[str, float] | None = None):
-    """Build :class:`lmfit.Parameters` from specs (values default to ``spec.default``)."""
-    import lmfit
-
-    params = lmfit.Parameters()
-    values = dict(values or {})
-    for spec in specs:
-        value = float(values.get(spec.name, spec.default))
-        value = min(max(value, spec.bounds[0]), spec.bounds[1])
-        params.add(spec.name, value=value, min=spec.bounds[0], max=spec.bounds[1])
-    return params
-
-
-def theta_from_mapping(specs: Sequence[ParamSpec], values: Mapping[str, float]) -> np.ndarray:
-    """Ordered parameter vector from a name -> value mapping (missing names use defaults)."""
-    return np.array([float(values.get(s.name, s.default)) for s in specs])
-
-
 def split_theta(specs: Sequence[ParamSpec], theta) -> dict[str, np.ndarray]:
     """Split ``theta`` of shape ``(..., p)`` into keyword arrays of shape ``(..., 1)``.
 
@@ -98,3 +81,35 @@ def split_theta(specs: Sequence[ParamSpec], theta) -> dict[str, np.ndarray]:
     if theta.shape[-1] != len(specs):
         raise ValueError(f"expected {len(specs)} parameters ({[s.name for s in specs]}), got {theta.shape[-1]}")
     return {s.name: theta[..., i, None] for i, s in enumerate(specs)}
+
+
+class Parametrized:
+    """What hysteresis laws and measurement chains share: declared parameters, described.
+
+    Subclasses set ``name``, ``title`` and ``params`` (a tuple of :class:`ParamSpec` in
+    the order of the ``theta`` vector).
+    """
+
+    name: ClassVar[str] = ""
+    title: ClassVar[str] = ""
+    params: ClassVar[tuple[ParamSpec, ...]] = ()
+
+    @classmethod
+    def param_names(cls) -> list[str]:
+        return [p.name for p in cls.params]
+
+    @classmethod
+    def defaults(cls) -> dict[str, float]:
+        return {p.name: p.default for p in cls.params}
+
+    @classmethod
+    def describe(cls) -> dict:
+        """Plain-dict description for listings and JSON."""
+        return {"name": cls.name, "title": cls.title, **cls._extra_description(),
+                "parameters": [{"name": p.name, "unit": p.unit, "default": p.default,
+                                "bounds": list(p.bounds), "description": p.description,
+                                "equation": p.equation, "log": p.log} for p in cls.params]}
+
+    @classmethod
+    def _extra_description(cls) -> dict:
+        return {}

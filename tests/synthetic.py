@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from fitdf.chain import get_chain
+from fitdf.chains import get_chain
 from fitdf.models import get_model
 
 #: Permalloy-like amplitudes and frequencies, the size of one Appendix B table.

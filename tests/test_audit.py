@@ -1,11 +1,12 @@
-"""Row-level audit of Appendix B (fitdf.audit): factors, shifts, printed errors, policies."""
+"""Row-level audit of Appendix B (fitdf.data.audit): factors, shifts, printed errors, policies."""
 import numpy as np
 import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fitdf import audit, datasets
+from fitdf.data import audit
+from fitdf.data import datasets
 from fitdf.errors import DataError, OptionError
 
 

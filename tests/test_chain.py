@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from fitdf.chain import CHAINS, DirectChain, WindingChain, chain_names, get_chain, solve_current
+from fitdf.chains import CHAINS, DirectChain, WindingChain, chain_names, get_chain, solve_current
 from fitdf.errors import ModelError
 from fitdf.models import get_model, model_names
 

@@ -3,7 +3,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fitdf.compare import RANK_COLUMNS, compare, cross_impedance, cross_validate, fit_all, ranking_table
+from fitdf.inference.ranking import RANK_COLUMNS, compare, cross_impedance, cross_validate, fit_all, ranking_table
 from fitdf.errors import OptionError
 
 from synthetic import synthetic_frame
@@ -82,8 +82,8 @@ def test_cross_impedance_on_synthetic_truth():
 
 
 def test_one_source_impedance_leaves_a_scale_symmetry():
-    """Core scaled by s and series resistance scaled by s: identical measured DF (fitdf.cores)."""
-    from fitdf.chain import get_chain
+    """Core scaled by s and series resistance scaled by s: identical measured DF (fitdf.data.cores)."""
+    from fitdf.chains import get_chain
     from fitdf.models import get_model
 
     chain, model = get_chain("winding"), get_model("constant_width")
@@ -102,7 +102,7 @@ def test_one_source_impedance_leaves_a_scale_symmetry():
 
 
 def test_winding_resistance_estimates_from_appendix_a():
-    from fitdf.cores import winding_resistance_estimate
+    from fitdf.data.cores import winding_resistance_estimate
 
     assert winding_resistance_estimate("permalloy") == pytest.approx(53.8, abs=0.1)
     assert winding_resistance_estimate("deltamax") == pytest.approx(42.6, abs=0.1)

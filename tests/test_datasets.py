@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fitdf import datasets
+from fitdf.data import datasets
 from fitdf.errors import DataError
 
 REPO = Path(__file__).resolve().parent.parent
@@ -200,14 +200,6 @@ def test_summary_counts():
     s = datasets.summary()
     assert {(t, int(f)): n for t, f, n in s[["table", "frequency_hz", "rows"]].values} == EXPECTED_ROWS
     assert s["saturation_rows"].sum() == 20 and s["missing_phase"].sum() == 2
-
-
-def test_measured_complex_df(b):
-    n = datasets.measured_complex_df(b)
-    r = row(b, "B.3", 3, 1)  # 0.36 at 25 deg lead
-    assert n[r.name] == pytest.approx(0.36 * complex(math.cos(math.radians(25)), math.sin(math.radians(25))))
-    assert np.allclose(np.abs(n[b["phase_lead_deg"].notna()]), b.loc[b["phase_lead_deg"].notna(), "df_reported"])
-    assert np.isnan(n[b["phase_lead_deg"].isna()]).all()
 
 
 def test_bundled_data_resolve_installed_or_checkout(monkeypatch):

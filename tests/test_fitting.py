@@ -5,8 +5,8 @@ import pytest
 
 import fitdf
 from fitdf.errors import DataError, ModelError, OptionError
-from fitdf.fitting import resolve_data
-from fitdf.likelihood import FitProblem
+from fitdf.inference.api import resolve_data
+from fitdf.inference.problem import FitProblem
 
 from synthetic import synthetic_frame
 

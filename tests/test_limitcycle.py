@@ -9,7 +9,7 @@ import pytest
 from scipy.optimize import brentq
 
 from fitdf.errors import OptionError
-from fitdf.limitcycle import (THESIS_PLANT, critical_gain, estimate_thesis_scales, format_limit_cycle_table,
+from fitdf.loop.harmonic import (THESIS_PLANT, critical_gain, estimate_thesis_scales, format_limit_cycle_table,
                               limit_cycles)
 
 PLANT = "K/(s(s+1)(s+2))"          # -180 deg at w = sqrt(2), |G(j sqrt 2)| = K / 6
@@ -211,7 +211,7 @@ def test_estimate_thesis_scales_recovers_known_scales():
 
 def test_fitted_core_in_the_thesis_loop():
     """A small fit to Table B.1: cycles lie in the second quadrant (phase lead, Graph 5.21) and balance."""
-    from fitdf.fitting import fit
+    from fitdf.inference.api import fit
 
     res = fit("B.1", "proportional_width", seed=0, n_starts=2)
     r = limit_cycles(THESIS_PLANT, res, gains=[50.0, 150.0], source_impedance=0.0, time_scale=2.5,
@@ -227,7 +227,7 @@ def test_fitted_core_in_the_thesis_loop():
 
 
 def test_limit_cycle_command_is_json_ready(tmp_path):
-    from fitdf.limitcycle import limit_cycle_command
+    from fitdf.loop.harmonic import limit_cycle_command
 
     out = limit_cycle_command("B.1", THESIS_PLANT, [100.0, 400.0], None, model="constant_width", seed=0,
                               time_scale=2.5, amplitude_range=(0.02, 10), n_starts=2, plot=tmp_path / "loci.png")
@@ -240,7 +240,7 @@ def test_limit_cycle_command_is_json_ready(tmp_path):
 
 
 def test_limit_cycle_command_needs_an_impedance_when_the_data_have_two():
-    from fitdf.limitcycle import limit_cycle_command
+    from fitdf.loop.harmonic import limit_cycle_command
 
     with pytest.raises(OptionError, match="several source impedances"):
         limit_cycle_command("permalloy", THESIS_PLANT, [100.0], None, model="constant_width")
@@ -250,8 +250,8 @@ def test_limit_cycle_command_needs_an_impedance_when_the_data_have_two():
 
 @pytest.mark.slow
 def test_thesis_comparison_runs():
-    from fitdf.limitcycle import thesis_limit_cycle_comparison
-    from fitdf.plots.limitcycle import plot_thesis_comparison
+    from fitdf.loop.harmonic import thesis_limit_cycle_comparison
+    from fitdf.plots.limit_cycles import plot_thesis_comparison
 
     df = thesis_limit_cycle_comparison(seed=0, models="proportional_width")
     assert len(df) == 38

@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 
 import fitdf
-from fitdf.fitting import resolve_data
-from fitdf.likelihood import FitProblem
-from fitdf.lsq import fit_lsq
-from fitdf.mcmc import LogPosterior, fit_mcmc
+from fitdf.inference.api import resolve_data
+from fitdf.inference.problem import FitProblem
+from fitdf.inference.lsq import fit_lsq
+from fitdf.inference.mcmc import LogPosterior, fit_mcmc
 
 from synthetic import synthetic_frame
 

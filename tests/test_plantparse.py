@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fitdf.errors import OptionError
-from fitdf.plantparse import (MAX_DEGREE, Plant, as_loop_plant, format_transfer_function,
+from fitdf.loop.plant import (MAX_DEGREE, Plant, as_loop_plant, format_transfer_function,
                               parse_plant)
 
 

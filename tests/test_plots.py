@@ -9,7 +9,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 
 import fitdf
-from fitdf.mcmc import fit_mcmc
+from fitdf.inference.mcmc import fit_mcmc
 from fitdf.plots import plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals
 
 

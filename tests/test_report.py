@@ -11,9 +11,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import fitdf.report_render as render
-import fitdf.report_sections as sections
-from fitdf.report import BLOCKS, ReportSettings, generate_report
+import fitdf.report.render as render
+import fitdf.report.sections as sections
+from fitdf.report.build import BLOCKS, ReportSettings, generate_report
 
 REPO = Path(__file__).resolve().parents[1]
 COMMITTED = REPO / "reports" / "results.json"
@@ -28,7 +28,7 @@ MINI = ReportSettings(models=("proportional_width",), blocks=("B.1",), n_starts=
 
 
 def _fake_limitcycle_module():
-    """Stand-in for fitdf.limitcycle, so the section is tested whatever that module's state."""
+    """Stand-in for fitdf.loop.harmonic, so the section is tested whatever that module's state."""
     def thesis_limit_cycle_comparison(seed=0, models=None, n_starts=6):
         df = pd.DataFrame({"core": ["permalloy"], "source_impedance_ohm": [0.0], "table": ["B.1"],
                            "model": [models[0] if models else "x"], "system_gain": [20.0], "amplitude_v": [1.2],
@@ -69,7 +69,7 @@ def _strip_timing(results: dict) -> dict:
 def tiny_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("rep") / "report"
     with pytest.MonkeyPatch.context() as mp:
-        mp.setitem(sys.modules, "fitdf.limitcycle", _fake_limitcycle_module())
+        mp.setitem(sys.modules, "fitdf.loop.harmonic", _fake_limitcycle_module())
         generate_report(out, seed=0, progress=False, settings=TINY)
     return out
 
@@ -148,7 +148,7 @@ def test_markdown_sections(tiny_report, tiny_results):
 
 
 def test_limit_cycle_section_without_the_module(monkeypatch):
-    monkeypatch.setitem(sys.modules, "fitdf.limitcycle", None)   # import fails
+    monkeypatch.setitem(sys.modules, "fitdf.loop.harmonic", None)   # import fails
     assert not sections.limit_cycles_available()
     rec = sections.limit_cycles_unavailable()
     blocks = render._limit_blocks({"limit_cycles": rec})
@@ -181,7 +181,7 @@ def test_failed_run_leaves_the_old_report_intact(tmp_path, monkeypatch, stub_fig
 
 
 def test_interrupted_swap_restores_the_old_report(tmp_path, monkeypatch):
-    import fitdf.report as report
+    import fitdf.report.build as report
 
     out = tmp_path / "reports"
     out.mkdir()

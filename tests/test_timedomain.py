@@ -6,7 +6,7 @@ import pytest
 
 from fitdf.errors import OptionError
 from fitdf.models import get_model
-from fitdf.timedomain import (CoreElement, RelayHysteresis, Saturation, measure_oscillation,
+from fitdf.loop.simulate import (CoreElement, RelayHysteresis, Saturation, measure_oscillation,
                               simulate_loop, simulated_describing_function, tabulated_describing_function,
                               time_domain_check)
 
@@ -100,7 +100,7 @@ PW = dict(k=20.8, c=0.035, m=0.41)
 @pytest.mark.parametrize("name, theta", [("constant_width", CW), ("proportional_width", PW)])
 def test_winding_operator_reproduces_the_chain_under_current_drive(name, theta):
     """With R >> |Z| the current is sinusoidal -- the chain's assumption -- so the DFs must agree."""
-    from fitdf.chain import get_chain
+    from fitdf.chains import get_chain
 
     model, R = get_model(name), 1e6
     el = CoreElement(model, theta, "winding", resistance=R, gain=1.0)
@@ -113,7 +113,7 @@ def test_winding_operator_reproduces_the_chain_under_current_drive(name, theta):
 
 
 def test_direct_operator_is_the_static_loop():
-    from fitdf.chain import get_chain
+    from fitdf.chains import get_chain
 
     model = get_model("proportional_width")
     el = CoreElement(model, PW, "direct", input_scale=100.0)
@@ -127,7 +127,7 @@ def test_direct_operator_is_the_static_loop():
 def test_voltage_drive_differs_from_the_sinusoidal_current_chain_in_saturation():
     """At 0 ohm (R = r_winding) the current is far from sinusoidal once the core saturates:
     the real (voltage-driven) DF leads much less than the chain's DF -- a limit of the chain."""
-    from fitdf.chain import get_chain
+    from fitdf.chains import get_chain
 
     model, R = get_model("proportional_width"), 36.4
     el = CoreElement(model, PW, "winding", resistance=R, gain=1.0)
@@ -148,8 +148,8 @@ def test_fitted_core_loop_against_harmonic_balance():
     Measured when written: table-HB vs simulation within 7 % (amplitude) and 3 %
     (frequency); chain-HB vs simulation +19..63 % amplitude, -16..-26 % frequency.
     """
-    from fitdf.fitting import fit
-    from fitdf.limitcycle import THESIS_PLANT
+    from fitdf.inference.api import fit
+    from fitdf.loop.harmonic import THESIS_PLANT
 
     res = fit("B.1", "proportional_width", seed=0, n_starts=1)
     el = CoreElement.from_fit(res, 0.0)

@@ -1,33 +1,24 @@
-"""Registry of the candidate hysteresis laws (name -> model class)."""
+"""Registry of the candidate hysteresis laws (name -> model class); one law per module."""
 from __future__ import annotations
 
-from ..errors import ModelError
-from .base import HysteresisModel
+from fitdf.errors import ModelError
+from fitdf.models.base import HysteresisModel
+from fitdf.models.constant_width import ConstantWidth
+from fitdf.models.cubic_hc import CubicHc
+from fitdf.models.frequency_hc import FrequencyHc
+from fitdf.models.proportional_width import ProportionalWidth, ProportionalWidthFig42
+from fitdf.models.rayleigh import Rayleigh
 
 __all__ = ["HysteresisModel", "MODELS", "get_model", "model_names"]
 
-MODELS: dict[str, type[HysteresisModel]] = {}
-
-
-def _register(*classes):
-    for cls in classes:
-        MODELS[cls.name] = cls
-
-
-def _load():
-    # Imported lazily in one place so adding a law is one line here.
-    from .constant_width import ConstantWidth
-    from .proportional_width import ProportionalWidth, ProportionalWidthFig42
-    from .cubic_hc import CubicHc
-    from .rayleigh import Rayleigh
-    from .frequency_hc import FrequencyHc
-
-    _register(ConstantWidth, ProportionalWidth, ProportionalWidthFig42, CubicHc, Rayleigh, FrequencyHc)
+#: Registered laws by name, in the order listings and reports show them.
+MODELS: dict[str, type[HysteresisModel]] = {
+    cls.name: cls
+    for cls in (ConstantWidth, ProportionalWidth, ProportionalWidthFig42, CubicHc, Rayleigh, FrequencyHc)
+}
 
 
 def model_names() -> list[str]:
-    if not MODELS:
-        _load()
     return list(MODELS)
 
 
@@ -35,7 +26,6 @@ def get_model(name) -> type[HysteresisModel]:
     """Model class by name (a class passes through)."""
     if isinstance(name, type) and issubclass(name, HysteresisModel):
         return name
-    names = model_names()
     if name not in MODELS:
-        raise ModelError(f"unknown model {name!r}; known models: {', '.join(names)}")
+        raise ModelError(f"unknown model {name!r}; known models: {', '.join(MODELS)}")
     return MODELS[name]

@@ -4,7 +4,7 @@ A model is a class with declarative :class:`~fitdf.params.ParamSpec` s and two p
 vectorised class methods:
 
 * :meth:`HysteresisModel.ascending_branch` -- the steady-state loop itself (used by the
-  numerical referee in :mod:`fitdf.loops` and by time-domain simulation);
+  numerical referee in :mod:`fitdf.describing` and by time-domain simulation);
 * :meth:`HysteresisModel.describing_function` -- the closed form ``N(A, f)``; laws
   without one fall back to the numerical engine.
 
@@ -18,19 +18,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..loops import numerical_describing_function
-from ..params import ParamSpec, split_theta
+from fitdf.describing import numerical_describing_function
+from fitdf.params import Parametrized, ParamSpec, split_theta
 
 __all__ = ["HysteresisModel"]
 
 
-class HysteresisModel:
+class HysteresisModel(Parametrized):
     """Base class of the describing-function models (one subclass per law)."""
 
-    #: Public name used by the registry, CLI and reports.
-    name: ClassVar[str] = ""
-    #: One-line human title.
-    title: ClassVar[str] = ""
     #: Thesis equations the law and its describing function come from.
     equations: ClassVar[str] = ""
     #: Parameters in the order of the ``theta`` vector.
@@ -57,14 +53,6 @@ class HysteresisModel:
         return numerical_describing_function(cls.ascending_branch, amplitude, frequency, **kw, **theta)
 
     @classmethod
-    def param_names(cls) -> list[str]:
-        return [p.name for p in cls.params]
-
-    @classmethod
-    def defaults(cls) -> dict[str, float]:
-        return {p.name: p.default for p in cls.params}
-
-    @classmethod
     def evaluate(cls, amplitude, frequency, theta):
         """Batched ``N``: ``theta`` of shape ``(..., p)`` gives a result of shape ``(..., n)``.
 
@@ -74,17 +62,6 @@ class HysteresisModel:
                                        **split_theta(cls.params, theta))
 
     @classmethod
-    def describe(cls) -> dict:
-        """Plain-dict description for listings and JSON."""
-        return {
-            "name": cls.name,
-            "title": cls.title,
-            "equations": cls.equations,
-            "frequency_dependent": cls.frequency_dependent,
-            "closed_form": cls.closed_form,
-            "parameters": [
-                {"name": p.name, "unit": p.unit, "default": p.default, "bounds": list(p.bounds),
-                 "description": p.description, "equation": p.equation, "log": p.log}
-                for p in cls.params
-            ],
-        }
+    def _extra_description(cls) -> dict:
+        return {"equations": cls.equations, "frequency_dependent": cls.frequency_dependent,
+                "closed_form": cls.closed_form}

@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..params import ParamSpec
-from ._piecewise import backlash_branch, backlash_df, ratio, with_frequency_shape
-from .base import HysteresisModel
+from fitdf.params import ParamSpec
+from fitdf.models._piecewise import backlash_branch, backlash_df, ratio, with_frequency_shape
+from fitdf.models.base import HysteresisModel
 
 __all__ = ["ConstantWidth", "K_SPEC", "C_SPEC"]
 

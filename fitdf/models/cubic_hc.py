@@ -30,10 +30,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..params import ParamSpec
-from ._piecewise import fig42_branch, fig42_df, ratio, with_frequency_shape
-from .base import HysteresisModel
-from .constant_width import C_SPEC, K_SPEC
+from fitdf.params import ParamSpec
+from fitdf.models._piecewise import fig42_branch, fig42_df, ratio, with_frequency_shape
+from fitdf.models.base import HysteresisModel
+from fitdf.models.constant_width import C_SPEC, K_SPEC
 
 __all__ = ["CubicHc", "cubic_width", "cubic_from_kennelly", "ks_magnet_steel_hc",
            "KS_MAGNET_STEEL"]

@@ -26,10 +26,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..params import ParamSpec
-from .base import HysteresisModel
-from .constant_width import C_SPEC, K_SPEC, ConstantWidth
-from .proportional_width import M_SPEC
+from fitdf.params import ParamSpec
+from fitdf.models.base import HysteresisModel
+from fitdf.models.constant_width import C_SPEC, K_SPEC, ConstantWidth
+from fitdf.models.proportional_width import M_SPEC
 
 __all__ = ["FrequencyHc", "coercive_current"]
 

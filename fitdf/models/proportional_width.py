@@ -52,11 +52,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..params import ParamSpec
-from ._piecewise import (backlash_branch, backlash_df, fig42_branch, fig42_df, ratio,
+from fitdf.params import ParamSpec
+from fitdf.models._piecewise import (backlash_branch, backlash_df, fig42_branch, fig42_df, ratio,
                          with_frequency_shape)
-from .base import HysteresisModel
-from .constant_width import C_SPEC, K_SPEC
+from fitdf.models.base import HysteresisModel
+from fitdf.models.constant_width import C_SPEC, K_SPEC
 
 __all__ = ["ProportionalWidth", "ProportionalWidthFig42", "saturation_amplitude", "M_SPEC"]
 

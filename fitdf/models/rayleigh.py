@@ -41,8 +41,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..params import ParamSpec
-from .base import HysteresisModel
+from fitdf.params import ParamSpec
+from fitdf.models.base import HysteresisModel
 
 __all__ = [
     "Rayleigh", "rayleigh_branch", "frohlich_kennelly", "remanence", "coercive_force",

@@ -1,7 +1,7 @@
 """Figures of fitted describing functions: fits, critical loci, residuals, posteriors.
 
-Every function takes fit results (:class:`~fitdf.results.FitResult` or
-:class:`~fitdf.results.PosteriorResult`) and returns a
+Every function takes fit results (:class:`~fitdf.inference.results.FitResult` or
+:class:`~fitdf.inference.results.PosteriorResult`) and returns a
 :class:`matplotlib.figure.Figure` built on the Agg canvas (no ``pyplot``: no global
 state, nothing shown). Save with ``fig.savefig(path)``; in a notebook the figure
 displays itself.
@@ -450,7 +450,7 @@ def plot_cross_impedance(train_results, test_data, calibration_gains=None, frequ
 
     Top rows: the training data with the fitted curves; bottom rows: the other
     impedance's data with the curves *predicted* from the training fit (dashed), the
-    core's parameters unchanged. As in :func:`fitdf.compare.cross_impedance`, only the
+    core's parameters unchanged. As in :func:`fitdf.inference.ranking.cross_impedance`, only the
     target table's calibration gain may be refitted: give it per model in
     ``calibration_gains`` (model -> gain; missing or NaN keeps the training gain).
 
@@ -466,7 +466,7 @@ def plot_cross_impedance(train_results, test_data, calibration_gains=None, frequ
     matplotlib.figure.Figure
         ``4`` rows (training magnitude/phase, predicted magnitude/phase) by frequency.
     """
-    from ..fitting import resolve_data
+    from fitdf.inference.api import resolve_data
 
     results = _as_list(train_results)
     train = results[0].problem.data

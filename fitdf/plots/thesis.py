@@ -18,8 +18,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ..models.cubic_hc import KS_MAGNET_STEEL, CubicHc, cubic_width, ks_magnet_steel_hc
-from ..models.proportional_width import (ProportionalWidth, ProportionalWidthFig42,
+from fitdf.models.cubic_hc import KS_MAGNET_STEEL, CubicHc, cubic_width, ks_magnet_steel_hc
+from fitdf.models.proportional_width import (ProportionalWidth, ProportionalWidthFig42,
                                          saturation_amplitude)
 
 __all__ = ["graph_4_1", "graph_4_2", "graph_4_3", "graph_4_4", "graph_4_5", "graph_4_6",

@@ -21,11 +21,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .chain import get_chain
-from .errors import ModelError
-from .fitdata import FitData, NoiseModel
-from .models import get_model
-from .params import ParamSpec
+from fitdf.chains import get_chain
+from fitdf.errors import ModelError
+from fitdf.data.fitdata import FitData, NoiseModel
+from fitdf.models import get_model
+from fitdf.params import ParamSpec
 
 __all__ = ["FitProblem"]
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import OptionError
+from fitdf.errors import OptionError
 
 __all__ = ["winding_resistance_estimate", "AWG34_OHM_PER_M", "CASE_ALLOWANCE_IN"]
 
@@ -38,7 +38,7 @@ def winding_resistance_estimate(core: str) -> float:
     2.5 x 2.0 x 0.5 in core) and 43 ohm (Deltamax: 2000 turns on 1.25 x 1.0 x 0.125 in).
     An estimate to perhaps 30 %: the thesis prints no winding resistance.
     """
-    from .datasets import load
+    from fitdf.data.datasets import load
 
     table = load("appendix_a")
     rows = table[table["core"] == str(core).lower()]

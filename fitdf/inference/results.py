@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .jsonutil import clean
-from .metrics import phase_difference_deg, residual_metrics
+from fitdf._json import clean
+from fitdf.inference.metrics import phase_difference_deg, residual_metrics
 
 __all__ = ["FitResult", "PosteriorResult", "residual_table"]
 
@@ -55,7 +55,7 @@ class FitResult:
         the internal coordinate, so asymmetric for log-scaled parameters).
     correlations : pandas.DataFrame
     metrics : dict
-        See :mod:`fitdf.metrics`.
+        See :mod:`fitdf.inference.metrics`.
     residuals : pandas.DataFrame
         One row per data row used.
     warnings : list of str
@@ -150,7 +150,7 @@ class FitResult:
 
     def plot(self, **kwargs):
         """Figure of measured and fitted magnitude and phase against input (see fitdf.plots)."""
-        from .plots import plot_fit
+        from fitdf.plots import plot_fit
 
         return plot_fit(self, **kwargs)
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .errors import DataError
+from fitdf.errors import DataError
 
 __all__ = ["FitData", "NoiseModel"]
 

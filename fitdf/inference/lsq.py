@@ -14,9 +14,9 @@ import numpy as np
 import pandas as pd
 from scipy.stats import qmc
 
-from .likelihood import FitProblem
-from .metrics import information_criteria, residual_metrics
-from .results import FitResult, residual_table
+from fitdf.inference.problem import FitProblem
+from fitdf.inference.metrics import information_criteria, residual_metrics
+from fitdf.inference.results import FitResult, residual_table
 
 __all__ = ["fit_lsq"]
 

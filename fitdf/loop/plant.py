@@ -34,7 +34,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import OptionError
+from fitdf.errors import OptionError
 
 __all__ = ["Plant", "parse_plant", "format_transfer_function", "LoopPlant", "as_loop_plant", "MAX_LENGTH",
            "MAX_DEGREE"]

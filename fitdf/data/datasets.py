@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .errors import DataError
+from fitdf.errors import DataError
 
-__all__ = ["names", "load", "summary", "measured_complex_df", "data_dir", "APPENDIX_B_COLUMNS",
+__all__ = ["names", "load", "summary", "data_dir", "APPENDIX_B_COLUMNS",
            "REQUIRED_COLUMNS", "TABLES", "CORES"]
 
 #: Column order of ``appendix_b.csv`` (the Appendix B schema).
@@ -38,7 +38,7 @@ APPENDIX_B_COLUMNS = ("table", "graph", "core", "core_part", "source_impedance_o
 #: Columns a user's CSV must have.
 REQUIRED_COLUMNS = ("input_v", "df_reported", "phase_lead_deg", "frequency_hz")
 #: Columns whose printed number of decimals :func:`load` records (as ``<column>_decimals``)
-#: so that :mod:`fitdf.audit` can compare cells at the precision the table prints.
+#: so that :mod:`fitdf.data.audit` can compare cells at the precision the table prints.
 DECIMAL_COLUMNS = ("input_v", "h1_output_v", "df_reported")
 TABLES = ("B.1", "B.2", "B.3", "B.4", "B.5")
 CORES = ("permalloy", "deltamax", "supermalloy")
@@ -76,7 +76,7 @@ def data_dir():
             return folder
     except ModuleNotFoundError:  # not installed: running from a checkout
         pass
-    return Path(__file__).resolve().parent.parent / "datasets"
+    return Path(__file__).resolve().parents[2] / "datasets"
 
 
 def names() -> list[str]:
@@ -158,16 +158,6 @@ def summary() -> pd.DataFrame:
         missing_phase=("phase_lead_deg", lambda s: int(s.isna().sum())),
         input_min_v=("input_v", "min"), input_max_v=("input_v", "max"))
     return out.reset_index()
-
-
-def measured_complex_df(df: pd.DataFrame) -> np.ndarray:
-    """Measured complex DF ``df_reported * exp(j * phase_lead)`` (phase lead in degrees).
-
-    A positive phase lead gives ``Im N > 0``: the cores' output voltage leads the input
-    (section V.4.1, Fig. 5.10). Rows without a phase give NaN.
-    """
-    mag = np.asarray(df["df_reported"], dtype=float)
-    return mag * np.exp(1j * np.deg2rad(np.asarray(df["phase_lead_deg"], dtype=float)))
 
 
 # ------------------------------------------------------------------ bundled data

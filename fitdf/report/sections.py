@@ -1,7 +1,7 @@
 """The report's sections as JSON-ready records, its figures, and its generated findings.
 
 Helpers of :mod:`fitdf.report`: they turn fit results into plain dicts (what
-``results.json`` holds and :mod:`fitdf.report_render` renders), draw and save each
+``results.json`` holds and :mod:`fitdf.report.render` renders), draw and save each
 block's figures (run inside the report's worker processes), and write the "Findings"
 sentences from the numbers alone.
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .jsonutil import clean
+from fitdf._json import clean
 
 __all__ = ["block_record", "block_payload", "make_figures", "cross_record", "audit_record", "findings",
            "limit_cycle_section", "limit_cycles_available", "limit_cycles_unavailable", "model_descriptions",
@@ -44,7 +44,7 @@ def aicc_winners(lsq: dict, models, keys) -> list[str]:
 
 
 def model_descriptions(models) -> list[dict]:
-    from .models import get_model
+    from fitdf.models import get_model
 
     return clean([get_model(m).describe() for m in models])
 
@@ -55,13 +55,14 @@ def _slug(key: str) -> str:
 
 # ------------------------------------------------------------------ data and audit
 def _audited(name: str) -> pd.DataFrame:
-    from . import audit, datasets
+    from fitdf.data import audit
+    from fitdf.data import datasets
 
     return audit.audit(datasets.load(name))
 
 
 def _data_summary(block, lsq0) -> dict:
-    from . import audit
+    from fitdf.data import audit
 
     frame = _audited(block.data)
     used = lsq0.residuals.groupby(["source_impedance_ohm", "frequency_hz"]).size()
@@ -86,7 +87,7 @@ def _excluded_rows(name: str) -> pd.DataFrame:
 
 def audit_record() -> dict:
     """Appendix B as a whole: per-table counts, DF factor per block, the audit's sentences."""
-    from . import audit
+    from fitdf.data import audit
 
     frame = _audited("appendix_b")
     tables = []
@@ -128,7 +129,7 @@ def fit_record(r) -> dict:
 
 
 def _ranking(results, cv=None, rank_by="rms_complex") -> list[dict]:
-    from .compare import ranking_table
+    from fitdf.inference.ranking import ranking_table
 
     cv_idx = {i: cv[r.model] for i, r in enumerate(results) if cv and r.model in cv}
     table = ranking_table(results, rank_by=rank_by, cv=cv_idx or None)
@@ -210,9 +211,9 @@ def _save(fig, figdir: Path, name: str) -> str:
 
 def make_figures(kind: str, payload, figdir: Path):
     """Draw and save one group of figures; returns relative paths."""
-    from .plots import (plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals,
+    from fitdf.plots import (plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals,
                         save_thesis_graphs)
-    from .plots.thesis import THESIS_GRAPHS
+    from fitdf.plots.thesis import THESIS_GRAPHS
 
     if kind == "thesis":
         paths = save_thesis_graphs(figdir / "thesis")
@@ -241,7 +242,7 @@ def _thesis_title(fn) -> str:
 # ------------------------------------------------------------------ limit cycles
 def limit_cycles_available() -> bool:
     try:
-        from .limitcycle import thesis_limit_cycle_comparison  # noqa: F401
+        from fitdf.loop.harmonic import thesis_limit_cycle_comparison  # noqa: F401
     except ImportError:
         return False
     return True
@@ -250,18 +251,18 @@ def limit_cycles_available() -> bool:
 def limit_cycles_unavailable(settings=None) -> dict:
     if settings is not None and not settings.limit_cycles:
         return {"available": False, "reason": "The limit-cycle comparison was switched off in these settings."}
-    return {"available": False, "reason": "The limit-cycle module (fitdf.limitcycle) is not available in this "
+    return {"available": False, "reason": "The limit-cycle module (fitdf.loop.harmonic) is not available in this "
                                           "installation, so Tables 5.1 and 5.2 are not compared."}
 
 
 def limit_cycle_section(seed, models, n_starts, figdir) -> dict:
-    """Tables 5.1/5.2 against the limit cycles predicted from the fits (fitdf.limitcycle).
+    """Tables 5.1/5.2 against the limit cycles predicted from the fits (fitdf.loop.harmonic).
 
     ``models`` are the lowest-AICc models of the blocks B.1, B.3, B.2, B.5; the
     comparison picks the lowest-AICc of them per block, which is the same choice as
     among all models, at a fraction of the cost.
     """
-    from .limitcycle import thesis_limit_cycle_comparison
+    from fitdf.loop.harmonic import thesis_limit_cycle_comparison
 
     params = inspect.signature(thesis_limit_cycle_comparison).parameters
     kw = {k: v for k, v in (("models", models), ("n_starts", n_starts)) if k in params}
@@ -272,7 +273,7 @@ def limit_cycle_section(seed, models, n_starts, figdir) -> dict:
     rec = {"available": True, "models_offered": models, "rows": clean(df.to_dict(orient="records")),
            "columns": list(df.columns), "attrs": clean(dict(df.attrs)), "figure": None}
     try:
-        from .plots import limitcycle as lcplots
+        from fitdf.plots import limitcycle as lcplots
     except ImportError:
         return rec
     for name in LIMIT_CYCLE_PLOTS:

@@ -5,11 +5,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from .errors import DataError, OptionError
-from .fitdata import FitData, NoiseModel
-from .likelihood import FitProblem
-from .lsq import fit_lsq
-from .mcmc import fit_mcmc
+from fitdf.errors import DataError, OptionError
+from fitdf.data.fitdata import FitData, NoiseModel
+from fitdf.inference.problem import FitProblem
+from fitdf.inference.lsq import fit_lsq
+from fitdf.inference.mcmc import fit_mcmc
 
 __all__ = ["fit", "resolve_data", "METHODS"]
 
@@ -22,7 +22,8 @@ def resolve_data(data, policy: str = "default", source_impedance=None, label: st
     The audit's row ``policy`` ("default", "all" or "strict", see datasets/README.md)
     decides which printed rows are used; ``source_impedance`` (ohm) keeps only those rows.
     """
-    from . import audit, datasets
+    from fitdf.data import audit
+    from fitdf.data import datasets
 
     if isinstance(data, FitData):
         return data

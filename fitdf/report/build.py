@@ -5,9 +5,9 @@ Appendix B -- Permalloy B.1 (0 ohm) and B.3 (600 ohm), Deltamax B.2 (0 ohm) and 
 (600 ohm), Supermalloy B.4 (600 ohm) -- and jointly to each core measured at both
 impedances (Permalloy B.1+B.3, Deltamax B.2+B.5), by least squares and MCMC; ranks
 the models; predicts across source impedance; compares limit cycles with Tables
-5.1/5.2 (when :mod:`fitdf.limitcycle` is available); and writes
+5.1/5.2 (when :mod:`fitdf.loop.harmonic` is available); and writes
 
-* ``results.json`` -- every number of the report (see :mod:`fitdf.report_render`);
+* ``results.json`` -- every number of the report (see :mod:`fitdf.report.render`);
 * ``figures/*.png`` -- the figures (:mod:`fitdf.plots`);
 * ``README.md`` and ``index.html`` -- the same report as Markdown (renders on a
   code-hosting site) and as one self-contained HTML file.
@@ -39,8 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .errors import OptionError
+from fitdf import __version__
+from fitdf.errors import OptionError
 
 __all__ = ["generate_report", "ReportSettings", "BLOCKS", "CROSS_DIRECTIONS", "collect", "write_outputs"]
 
@@ -132,7 +132,7 @@ class ReportSettings:
         return cls(methods=methods, mcmc_top=cls.mcmc_top if "mcmc" in methods else 0)
 
     def model_list(self) -> list[str]:
-        from .models import model_names
+        from fitdf.models import model_names
 
         return list(self.models) if self.models else model_names()
 
@@ -146,38 +146,38 @@ class ReportSettings:
 
 # ------------------------------------------------------------------ jobs (top level: picklable)
 def _job_lsq(data, model, seed, n_starts):
-    from .fitting import fit
+    from fitdf.inference.api import fit
 
     return fit(data, model, method="lsq", seed=seed, n_starts=n_starts)
 
 
 def _job_mcmc(lsq, seed, n_steps, n_walkers):
-    from .mcmc import fit_mcmc
+    from fitdf.inference.mcmc import fit_mcmc
 
     return fit_mcmc(lsq.problem, lsq, seed=seed, n_steps=n_steps, n_walkers=n_walkers)
 
 
 def _job_cv(lsq, seed, n_starts):
-    from .compare import cross_validate
+    from fitdf.inference.ranking import cross_validate
 
     return cross_validate(lsq, seed=seed, n_starts=n_starts)
 
 
 def _job_cross(core, model, train_ohm, test_ohm, seed, n_starts):
-    from .compare import cross_impedance
+    from fitdf.inference.ranking import cross_impedance
 
     return cross_impedance(core, models=[model], train_ohm=train_ohm, test_ohm=test_ohm, seed=seed,
                            n_starts=n_starts).to_dict(orient="records")
 
 
 def _job_limit_cycles(seed, models, n_starts, figdir):
-    from . import report_sections
+    from fitdf.report import sections as report_sections
 
     return report_sections.limit_cycle_section(seed, models, n_starts, figdir)
 
 
 def _job_figures(kind, payload, figdir):
-    from . import report_sections
+    from fitdf.report import sections as report_sections
 
     return report_sections.make_figures(kind, payload, Path(figdir))
 
@@ -235,7 +235,7 @@ _KIND_ORDER = {"limit": 0, "mcmc": 1, "cv": 2, "cross": 3}
 
 def _long_first(item):
     """Sort key of the second phase's jobs: long kinds and large blocks first (a short pool tail)."""
-    from .report_sections import expected_cost
+    from fitdf.report.sections import expected_cost
 
     key, (_, args) = item
     size = expected_cost(args[0].problem.data.label, "") if key[0] in ("mcmc", "cv") else 0.0
@@ -248,7 +248,7 @@ def _top(ranked: list[str], n):
 
 def _least_squares(settings, seed, runner, models, blocks) -> dict:
     """Every model on every block; costly models and large blocks first (a short pool tail)."""
-    from .report_sections import expected_cost
+    from fitdf.report.sections import expected_cost
 
     order = sorted(((b, m) for b in blocks for m in models),
                    key=lambda bm: (-expected_cost(bm[0].data, bm[1]), blocks.index(bm[0]), models.index(bm[1])))
@@ -258,7 +258,7 @@ def _least_squares(settings, seed, runner, models, blocks) -> dict:
 
 def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -> dict:
     """MCMC and cross-validation of each block's best models, cross-impedance, limit cycles."""
-    from . import report_sections as rs
+    from fitdf.report import sections as rs
 
     jobs = {}
     if settings.limit_cycles and rs.limit_cycles_available():
@@ -279,7 +279,7 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
 
 
 def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
-    from . import report_sections as rs
+    from fitdf.report import sections as rs
 
     mcmc, cross = second["mcmc"], second["cross"]
     jobs = {}
@@ -300,8 +300,8 @@ def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
 
 def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) -> dict:
     """Run every fit and figure; return the JSON-ready results (see report_render)."""
-    from . import report_sections as rs
-    from .compare import ranking_table
+    from fitdf.report import sections as rs
+    from fitdf.inference.ranking import ranking_table
 
     models, blocks = settings.model_list(), settings.block_list()
     timing = {}
@@ -335,7 +335,7 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) 
 
 def write_outputs(results: dict, out_dir: Path) -> None:
     """results.json, README.md and index.html into ``out_dir`` (figures already there)."""
-    from .report_render import render_html, render_markdown
+    from fitdf.report.render import render_html, render_markdown
 
     out_dir = Path(out_dir)
     text = json.dumps(results, indent=1, allow_nan=False, ensure_ascii=False)

@@ -50,8 +50,8 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import brentq, least_squares, minimize_scalar
 
-from .errors import OptionError
-from .plantparse import LoopPlant, as_loop_plant
+from fitdf.errors import OptionError
+from fitdf.loop.plant import LoopPlant, as_loop_plant
 
 __all__ = ["limit_cycles", "critical_gain", "LimitCycle", "LimitCycleResponse", "as_describing_function",
            "thesis_limit_cycle_comparison", "estimate_thesis_scales", "THESIS_PLANT", "THESIS_BLOCKS",
@@ -219,7 +219,7 @@ class LimitCycleResponse:
 
     def plot(self, **kwargs):
         """Nyquist-plane figure (Graphs 5.21/5.22); see :func:`fitdf.plots.limitcycle.plot_nyquist`."""
-        from .plots.limitcycle import plot_nyquist
+        from fitdf.plots.limit_cycles import plot_nyquist
 
         return plot_nyquist(self, **kwargs)
 
@@ -475,7 +475,7 @@ def limit_cycles(plant, nonlinearity, gains=None, *, amplitude_range=None, omega
     Parameters
     ----------
     plant : str, (num, den), control.TransferFunction or LoopPlant
-        ``G0(s)``; text may contain the gain symbol ``K`` (:func:`fitdf.plantparse.parse_plant`).
+        ``G0(s)``; text may contain the gain symbol ``K`` (:func:`fitdf.loop.plant.parse_plant`).
         Without ``K`` the loop is ``K G0``.
     nonlinearity : fitted result or callable
         A fitted result (``predict(amplitude, frequency_hz, source_impedance)``, the
@@ -547,8 +547,8 @@ THESIS_BLOCKS = {("permalloy", 0.0): "B.1", ("permalloy", 600.0): "B.3",
 
 def _fit_best(data, models, seed, n_starts):
     """The lowest-AICc least-squares fit among ``models`` (all registered when None)."""
-    from .fitting import fit
-    from .models import model_names
+    from fitdf.inference.api import fit
+    from fitdf.models import model_names
 
     names = [models] if isinstance(models, str) else list(models or model_names())
     fits = [fit(data, m, seed=seed, n_starts=n_starts) for m in names]
@@ -633,11 +633,11 @@ def thesis_limit_cycle_comparison(seed=0, models=None, *, time_scale=None, gain_
         the block (system-gain units) and ``extrapolated`` (the predicted cycle lies
         outside the amplitudes or frequencies the fit saw). With ``time_domain=True``
         also ``amplitude_sim`` / ``omega_sim`` / ``oscillating_sim``: the loop simulated
-        with the fitted core's loop operator (:mod:`fitdf.timedomain`), started at the
+        with the fitted core's loop operator (:mod:`fitdf.loop.simulate`), started at the
         measured amplitude. ``attrs`` holds ``alpha``, ``beta``, ``scales`` (joint and
         per-block estimates), ``agreement`` (RMS log ratios per block) and the fits.
     """
-    from . import datasets
+    from fitdf.data import datasets
 
     table = pd.concat([datasets.load("table_5_1"), datasets.load("table_5_2")], ignore_index=True)
     table["source_impedance_ohm"] = table["source_impedance_ohm"].astype(float)
@@ -705,7 +705,7 @@ def _critical_summary(df) -> list:
 
 def _add_time_domain(df, fits, alpha, beta, steps_per_period=200, periods=40):
     """Simulate every row's loop (one batch per block) with the fitted core's loop operator."""
-    from .timedomain import CoreElement, simulate_loop
+    from fitdf.loop.simulate import CoreElement, simulate_loop
 
     parts = []
     for (core, rs), block in df.groupby(["core", "source_impedance_ohm"], sort=False):
@@ -751,8 +751,8 @@ def limit_cycle_command(data, plant, gains, source_impedance, model=None, chain=
     plot : str or path, optional
         Write the Nyquist-plane figure (:meth:`LimitCycleResponse.plot`) there.
     """
-    from .fitting import fit, resolve_data
-    from .models import model_names
+    from fitdf.inference.api import fit, resolve_data
+    from fitdf.models import model_names
 
     lp = as_loop_plant(plant, time_scale)   # a bad plant fails now, before any fitting
     if source_impedance is None:   # one impedance in the data: use it; several: the user must choose

@@ -3,7 +3,7 @@
 Ranking
     One row per (model, chain, method) fitted to the same rows: parameter count, RMS
     complex / magnitude / phase residuals, reduced chi-square, AICc, BIC (see
-    :mod:`fitdf.metrics`), PSIS-LOO and WAIC for MCMC fits, and a cross-validated RMS
+    :mod:`fitdf.inference.metrics`), PSIS-LOO and WAIC for MCMC fits, and a cross-validated RMS
     complex residual (leave one frequency out, fit the rest by least squares, predict
     it). Default order: RMS complex residual. Two models are called *indistinguishable*
     when their AICc differ by less than 2 (least squares) or their LOO-IC difference is
@@ -14,12 +14,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .errors import OptionError
-from .fitting import fit, resolve_data
-from .likelihood import FitProblem
-from .lsq import fit_lsq
-from .metrics import residual_metrics
-from .models import model_names
+from fitdf.errors import OptionError
+from fitdf.inference.api import fit, resolve_data
+from fitdf.inference.problem import FitProblem
+from fitdf.inference.lsq import fit_lsq
+from fitdf.inference.metrics import residual_metrics
+from fitdf.models import model_names
 
 __all__ = ["compare", "fit_all", "ranking_table", "cross_validate", "cross_impedance", "RANK_COLUMNS"]
 
@@ -141,13 +141,13 @@ def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=
     Everything that describes the core (the law's parameters and the winding
     resistance) comes from the training fit. Data at a single source impedance fix the
     core only up to a current scale that trades against the winding resistance (see
-    :mod:`fitdf.cores`), so the winding chain's ``r_winding`` is held at ``r_winding``
+    :mod:`fitdf.data.cores`), so the winding chain's ``r_winding`` is held at ``r_winding``
     (default: the Appendix A estimate for a thesis core) in both fits. The tables define
     their DF with different calibration factors (see the audit), so the target table's
     calibration ``gain`` -- and only that -- is fitted on the target rows.
     """
-    from .chain import get_chain
-    from .cores import winding_resistance_estimate
+    from fitdf.chains import get_chain
+    from fitdf.data.cores import winding_resistance_estimate
 
     train = resolve_data(core, policy, train_ohm)
     test = resolve_data(core, policy, test_ohm)

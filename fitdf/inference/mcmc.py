@@ -1,7 +1,7 @@
 """MCMC with emcee: a posterior for every parameter, started from the least-squares optimum.
 
 Likelihood
-    The Gaussian of :meth:`fitdf.likelihood.FitProblem.pointwise_loglike` with two
+    The Gaussian of :meth:`fitdf.inference.problem.FitProblem.pointwise_loglike` with two
     *fitted* noise scales, one for magnitude and one for phase. Their priors are
     log-uniform (Jeffreys) on 0.001..1 (magnitude) and 0.1..50 degrees (phase), wide
     around the tables' printed precision (0.01, 1 degree), so the data say how well the
@@ -30,9 +30,9 @@ import emcee
 import numpy as np
 import pandas as pd
 
-from .likelihood import FitProblem
-from .metrics import information_criteria, residual_metrics
-from .results import FitResult, PosteriorResult, residual_table
+from fitdf.inference.problem import FitProblem
+from fitdf.inference.metrics import information_criteria, residual_metrics
+from fitdf.inference.results import FitResult, PosteriorResult, residual_table
 
 __all__ = ["fit_mcmc", "NOISE_BOUNDS"]
 

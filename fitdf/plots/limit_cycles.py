@@ -8,7 +8,7 @@
 * :func:`plot_thesis_comparison` -- predicted vs measured amplitude and frequency
   against the system gain for Tables 5.1 and 5.2, with the predicted and measured
   gains at which the oscillation dies out.
-* :func:`plot_time_response` -- a simulated loop (:mod:`fitdf.timedomain`).
+* :func:`plot_time_response` -- a simulated loop (:mod:`fitdf.loop.simulate`).
 
 Like :mod:`fitdf.plots.thesis`, figures are built on the Agg canvas without
 ``pyplot``: no global backend switch and no figure registry that could leak (and warn,
@@ -41,7 +41,7 @@ def _pick(values, n):
 
 
 def plot_nyquist(response, ax=None, gains=None, omegas=None, n_gains=3, n_loci=4, n_points=400):
-    """Nyquist-plane figure of a :class:`~fitdf.limitcycle.LimitCycleResponse`.
+    """Nyquist-plane figure of a :class:`~fitdf.loop.harmonic.LimitCycleResponse`.
 
     Parameters
     ----------
@@ -105,7 +105,7 @@ def plot_nyquist(response, ax=None, gains=None, omegas=None, n_gains=3, n_loci=4
 
 
 def plot_thesis_comparison(df):
-    """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.limitcycle.thesis_limit_cycle_comparison`).
+    """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.loop.harmonic.thesis_limit_cycle_comparison`).
 
     Columns are the cores, rows the amplitude and the angular frequency against the
     system gain. Markers: measured (circles 0 ohm, squares 600 ohm; x: the values
@@ -152,7 +152,7 @@ def plot_thesis_comparison(df):
 def plot_time_response(response, index=0, hb=None):
     """Error (element input), element output and probe (core current) of one batch member.
 
-    ``hb`` (a :class:`~fitdf.limitcycle.LimitCycle`) draws the predicted amplitude.
+    ``hb`` (a :class:`~fitdf.loop.harmonic.LimitCycle`) draws the predicted amplitude.
     """
     n = 3 if response.probe is not None else 2
     fig, axes = _figure(n, 1, figsize=(6.5, 1.8 * n + 0.8), sharex=True)

@@ -48,8 +48,8 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from .errors import OptionError
-from .plantparse import as_loop_plant
+from fitdf.errors import OptionError
+from fitdf.loop.plant import as_loop_plant
 
 __all__ = ["Saturation", "RelayHysteresis", "CoreElement", "TimeResponse", "simulate_loop",
            "measure_oscillation", "time_domain_check", "simulated_describing_function",
@@ -166,7 +166,7 @@ class CoreElement:
 
     def describing_function(self, A, omega):
         """The DF this element has under sinusoidal input (the chain's prediction)."""
-        from .chain import get_chain
+        from fitdf.chains import get_chain
 
         ch = get_chain(self.chain)
         A, omega = np.broadcast_arrays(np.asarray(A, float), np.asarray(omega, float))
@@ -442,7 +442,7 @@ def time_domain_check(plant, element, gains, *, nonlinearity=None, amplitude_ran
     peak-to-peak at the element input), ``amplitude_h1``, ``omega``, ``plant_output_amplitude``,
     and the relative differences ``amplitude_error`` (peak) / ``amplitude_h1_error`` / ``omega_error``.
     """
-    from .limitcycle import limit_cycles
+    from fitdf.loop.harmonic import limit_cycles
 
     N = nonlinearity if nonlinearity is not None else element.describing_function
     hb = limit_cycles(plant, N, gains, amplitude_range=amplitude_range, omega_range=omega_range,
@@ -469,7 +469,7 @@ def simulated_describing_function(element, amplitude, frequency_hz, *, cycles: i
 
     Every amplitude (and frequency) is one batch member, run together; the first
     harmonic of the output over the last ``cycles - settle_cycles`` periods gives
-    ``N = (a1 + j b1) / A`` (lead positive, as in :mod:`fitdf.loops`). For a
+    ``N = (a1 + j b1) / A`` (lead positive, as in :mod:`fitdf.describing`). For a
     :class:`CoreElement` in the winding chain this is what the analyser of section V.2
     read -- the current is whatever the circuit makes it -- whereas the chain's DF
     assumes a sinusoidal current; the difference is the error of that assumption.

@@ -18,7 +18,7 @@ from itertools import groupby
 import numpy as np
 import pandas as pd
 
-from .errors import DataError, OptionError
+from fitdf.errors import DataError, OptionError
 
 __all__ = ["audit", "block_factors", "select_rows", "findings", "POLICIES", "MAG_SPIKE", "PHASE_SPIKE"]
 

@@ -1,0 +1,4 @@
+"""The inference layer: one likelihood (``problem``), least squares (``lsq``), MCMC (``mcmc``),
+their results and metrics, the ``fit`` entry point (``api``) and ranking of fitted models
+(``ranking``). Fitters know nothing of a particular law: they see a :class:`FitProblem`.
+"""
