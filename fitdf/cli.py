@@ -11,9 +11,19 @@ import json
 import sys
 import traceback
 
+import pandas as pd
+from tqdm.auto import tqdm
+
 from fitdf import __version__
-from fitdf.errors import FitdfError
 from fitdf._json import clean
+from fitdf.chains import CHAINS, chain_names
+from fitdf.data import audit, datasets
+from fitdf.errors import FitdfError, OptionError
+from fitdf.inference.ranking import METHOD_CHOICES, RANK_COLUMNS, compare_fits
+from fitdf.loop.fitted import fitted_limit_cycles
+from fitdf.models import MODELS, model_names
+from fitdf.plots.limit_cycles import plot_nyquist
+from fitdf.report.build import generate_report
 
 EXIT_USAGE = 2
 EXIT_INTERNAL = 1
@@ -31,24 +41,12 @@ class _UsageError(Exception):
 
 
 def _emit_json(obj):
-    json.dump(obj, sys.stdout, indent=2, default=_json_default, allow_nan=False)
+    json.dump(clean(obj), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
-
-
-def _json_default(o):
-    import numpy as np
-
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 # ------------------------------------------------------------------ commands
 def cmd_datasets(args):
-    from fitdf.data import datasets
-
     table = datasets.summary()
     if args.json:
         _emit_json({"datasets": datasets.names(), "appendix_b": clean(table.to_dict(orient="records"))})
@@ -60,9 +58,6 @@ def cmd_datasets(args):
 
 
 def cmd_audit(args):
-    from fitdf.data import audit
-    from fitdf.data import datasets
-
     frame = audit.audit(datasets.load(args.data))
     flagged = frame[frame["flag"] != "ok"]
     factors = audit.block_factors(frame) if "h1_output_v" in frame else None
@@ -78,8 +73,6 @@ def cmd_audit(args):
         print("DF factor per block (printed vs followed by the data):")
         print(factors.to_string(index=False), "\n")
     if not flagged.empty:
-        import pandas as pd
-
         with pd.option_context("display.max_colwidth", 200, "display.width", 250):
             print(flagged[cols].to_string(index=False))
     for line in audit.findings(frame):
@@ -88,10 +81,6 @@ def cmd_audit(args):
 
 
 def cmd_models(args):
-    from fitdf.chains import CHAINS
-    from fitdf.models import MODELS, model_names
-
-    model_names()
     if args.json:
         _emit_json({"models": [m.describe() for m in MODELS.values()],
                     "chains": [{"name": c.name, "title": c.title,
@@ -116,27 +105,21 @@ def _ranking_text(table):
 
 
 def cmd_fit(args):
-    from fitdf.inference.ranking import compare
-    from fitdf.models import model_names
-
     models = args.models or model_names()
-    methods = {"lsq": 1, "mcmc": 1, "both": 2}[args.method]
+    methods = len(METHOD_CHOICES[args.method])
     progress = None
     if not args.quiet and not args.json:
-        from tqdm.auto import tqdm
-
         progress = tqdm(total=len(models) * len(args.chain) * methods, desc="fitting", file=sys.stderr,
                         disable=None)
     try:
-        table = compare(args.data, models=models, chains=tuple(args.chain), method=args.method, seed=args.seed,
+        comparison = compare_fits(args.data, models=models, chains=tuple(args.chain), method=args.method, seed=args.seed,
                         rank_by=args.rank_by, cross_validation=not args.no_cv, progress=progress,
                         source_impedance=args.source_impedance, policy=args.policy, n_steps=args.steps,
                         max_steps=args.max_steps)
     finally:
         if progress is not None:
             progress.close()
-    results = table.attrs.pop("results")
-    best = next(r for r in results if (r.model, r.chain, r.method) == tuple(table.iloc[0][["model", "chain", "method"]]))
+    table, results, best = comparison.table, comparison.results, comparison.best
     if args.json:
         _emit_json(clean({"data": str(args.data), "seed": args.seed, "rank_by": args.rank_by,
                            "ranking": table.to_dict(orient="records"),
@@ -157,20 +140,22 @@ def cmd_fit(args):
 
 
 def cmd_report(args):
-    from fitdf.report.build import generate_report
-
     out = generate_report(out_dir=args.out, seed=args.seed, quick=args.quick, progress=not args.quiet)
     print(f"report written to {out}/ (README.md, index.html, results.json, figures/)")
     return 0
 
 
 def cmd_limit_cycle(args):
-    from fitdf.loop.harmonic import format_limit_cycle_table, limit_cycle_command
-
-    result = limit_cycle_command(args.data, args.plant, args.gain, args.source_impedance, model=args.model,
-                                 chain=args.chain, seed=args.seed, plot=args.plot, time_scale=args.time_scale)
+    found = fitted_limit_cycles(args.data, args.plant, args.gain, args.source_impedance, model=args.model,
+                                chain=args.chain, seed=args.seed, time_scale=args.time_scale)
+    if args.plot is not None:
+        try:
+            plot_nyquist(found.response).savefig(args.plot)
+        except (OSError, ValueError) as exc:   # unwritable path or unknown image format: the user's to fix
+            raise OptionError(f"cannot write the figure to {args.plot}: {exc}") from exc
+    result = found.to_dict()
     if args.json:
-        _emit_json(clean(result))
+        _emit_json(result)
         return 0
     print(format_limit_cycle_table(result))
     if args.plot:
@@ -178,10 +163,37 @@ def cmd_limit_cycle(args):
     return 0
 
 
+def format_limit_cycle_table(result: dict) -> str:
+    """Plain-text table of a :class:`~fitdf.loop.fitted.FittedLimitCycles` record (``to_dict``)."""
+    lines = [f"Limit cycles of {result['plant']} with the {result['model']} core "
+             f"({result['chain']} chain) fitted to {result['data']} at {result['source_impedance_ohm']:g} ohm",
+             f"amplitudes searched {result['amplitude_range'][0]:.3g}..{result['amplitude_range'][1]:.3g} V, "
+             f"omega {result['omega_range'][0]:.3g}..{result['omega_range'][1]:.3g} rad/s",
+             "", f"{'gain':>10s} {'amplitude V':>12s} {'omega rad/s':>12s} {'f Hz':>8s} {'stable':>7s} {'loeb':>7s}"]
+    by_gain = {}
+    for c in result["intersections"]:
+        by_gain.setdefault(c["gain"], []).append(c)
+    for g in result["gains"]:
+        cycles = by_gain.get(g, [])
+        if not cycles:
+            lines.append(f"{g:>10.4g} {'none':>12s}")
+        for c in cycles:
+            lines.append(f"{g:>10.4g} {c['amplitude']:>12.4g} {c['omega_rad_s']:>12.4g} {c['frequency_hz']:>8.3g} "
+                         f"{'yes' if c['stable'] else 'no':>7s} {c['loeb']:>7.2f}")
+    crit = result.get("critical_gain")
+    point = result.get("critical_point", {})
+    lines.append("")
+    if crit is None:
+        lines.append("No gain gives a limit cycle in the amplitude range searched.")
+    else:
+        where = " (at the edge of the amplitude range)" if point.get("at_boundary") else ""
+        lines.append(f"Oscillations die out below gain {crit:.4g}; the first cycle appears at "
+                     f"A = {point.get('amplitude'):.3g} V, omega = {point.get('omega'):.3g} rad/s{where}.")
+    return "\n".join(lines)
+
+
 # ------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
-    from fitdf.inference.ranking import RANK_COLUMNS
-
     p = _Parser(prog="fitdf", description="Fit, rank and use describing-function models of hysteretic elements.",
                 formatter_class=argparse.RawDescriptionHelpFormatter,
                 epilog="examples:\n  fitdf datasets\n  fitdf audit B.1\n  fitdf fit permalloy --method both\n"
@@ -211,7 +223,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("data", help="core name (permalloy, deltamax, supermalloy), table (B.1..B.5) or CSV path")
     sp.add_argument("--method", choices=["lsq", "mcmc", "both"], default="lsq")
     sp.add_argument("--models", nargs="+", metavar="MODEL", help="models to fit (default: all)")
-    sp.add_argument("--chain", nargs="+", default=["winding"], choices=["winding", "direct"],
+    sp.add_argument("--chain", nargs="+", default=["winding"], choices=chain_names(),
                     help="measurement chain(s) (default: winding)")
     sp.add_argument("--source-impedance", type=float, default=None, metavar="OHM",
                     help="only rows at this source impedance (default: all, fitted jointly)")
@@ -244,16 +256,13 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--model", default=None, help="model to use (default: the lowest AICc of all models)")
     sp.add_argument("--time-scale", type=float, default=1.0, metavar="ALPHA",
                     help="run the plant as G(s/ALPHA), e.g. for a time-scaled analog computer (default 1)")
-    sp.add_argument("--chain", default="winding", choices=["winding", "direct"])
+    sp.add_argument("--chain", default="winding", choices=chain_names())
     sp.add_argument("--seed", type=int, default=0)
     sp.add_argument("--plot", default=None, metavar="FILE.png", help="write the Nyquist-plane figure")
     return p
 
 
 def _validate(args):
-    from fitdf.errors import OptionError
-    from fitdf.models import model_names
-
     if getattr(args, "model", None) and args.model not in model_names():
         raise OptionError(f"unknown model {args.model!r}; known: {', '.join(model_names())}")
     if getattr(args, "models", None):

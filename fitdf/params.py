@@ -13,7 +13,12 @@ from typing import ClassVar, Sequence
 
 import numpy as np
 
-__all__ = ["ParamSpec", "Parametrized", "split_theta"]
+__all__ = ["ParamSpec", "Parametrized", "split_theta", "PER_TABLE", "table_parameter", "parameter_base",
+           "calibration_gain"]
+
+#: Chain parameters a joint fit gives one copy per table, named ``gain[B.1]``: the
+#: tables' calibration factors differ (Tables B.1-B.5 footnotes).
+PER_TABLE = ("gain",)
 
 
 @dataclass(frozen=True)
@@ -81,6 +86,23 @@ def split_theta(specs: Sequence[ParamSpec], theta) -> dict[str, np.ndarray]:
     if theta.shape[-1] != len(specs):
         raise ValueError(f"expected {len(specs)} parameters ({[s.name for s in specs]}), got {theta.shape[-1]}")
     return {s.name: theta[..., i, None] for i, s in enumerate(specs)}
+
+
+def table_parameter(name: str, table: str) -> str:
+    """Name of the copy of per-table parameter ``name`` for ``table`` (``gain[B.1]``)."""
+    return f"{name}[{table}]"
+
+
+def parameter_base(name: str) -> str:
+    """``gain[B.1]`` -> ``gain``; other names unchanged."""
+    return name.split("[", 1)[0]
+
+
+def calibration_gain(values) -> float:
+    """The calibration gain of fitted ``values``: ``gain``, else the first table's, else 1."""
+    if "gain" in values:
+        return float(values["gain"])
+    return float(next((v for k, v in values.items() if parameter_base(k) == "gain"), 1.0))
 
 
 class Parametrized:

@@ -8,9 +8,13 @@ import pandas as pd
 import pytest
 from scipy.optimize import brentq
 
+from fitdf.cli import format_limit_cycle_table
 from fitdf.errors import OptionError
-from fitdf.loop.harmonic import (THESIS_PLANT, critical_gain, estimate_thesis_scales, format_limit_cycle_table,
-                              limit_cycles)
+from fitdf.inference.api import fit
+from fitdf.loop.fitted import fitted_limit_cycles
+from fitdf.loop.harmonic import critical_gain, limit_cycles
+from fitdf.plots.limit_cycles import plot_nyquist, plot_thesis_comparison
+from fitdf.thesis import THESIS_PLANT, estimate_thesis_scales, thesis_limit_cycle_comparison
 
 PLANT = "K/(s(s+1)(s+2))"          # -180 deg at w = sqrt(2), |G(j sqrt 2)| = K / 6
 
@@ -160,7 +164,7 @@ def test_response_table_json_and_plot():
     assert list(t["oscillation"]) == [False, True, True]
     assert {"gain", "amplitude", "omega_rad_s", "frequency_hz", "stable", "loeb"} <= set(t.columns)
     json.dumps(r.to_dict(), allow_nan=False)
-    fig = r.plot()
+    fig = plot_nyquist(r)
     ax = fig.axes[0]
     assert ax.get_xlabel() == "Re" and len(ax.lines) >= 4
 
@@ -211,8 +215,6 @@ def test_estimate_thesis_scales_recovers_known_scales():
 
 def test_fitted_core_in_the_thesis_loop():
     """A small fit to Table B.1: cycles lie in the second quadrant (phase lead, Graph 5.21) and balance."""
-    from fitdf.inference.api import fit
-
     res = fit("B.1", "proportional_width", seed=0, n_starts=2)
     r = limit_cycles(THESIS_PLANT, res, gains=[50.0, 150.0], source_impedance=0.0, time_scale=2.5,
                      amplitude_range=(0.02, 10))
@@ -226,12 +228,12 @@ def test_fitted_core_in_the_thesis_loop():
     assert "die out below gain" in text
 
 
-def test_limit_cycle_command_is_json_ready(tmp_path):
-    from fitdf.loop.harmonic import limit_cycle_command
-
-    out = limit_cycle_command("B.1", THESIS_PLANT, [100.0, 400.0], None, model="constant_width", seed=0,
-                              time_scale=2.5, amplitude_range=(0.02, 10), n_starts=2, plot=tmp_path / "loci.png")
+def test_fitted_limit_cycles_are_json_ready(tmp_path):
+    found = fitted_limit_cycles("B.1", THESIS_PLANT, [100.0, 400.0], None, model="constant_width", seed=0,
+                                time_scale=2.5, amplitude_range=(0.02, 10), n_starts=2)
+    plot_nyquist(found.response).savefig(tmp_path / "loci.png")
     assert (tmp_path / "loci.png").stat().st_size > 0
+    out = found.to_dict()
     json.dumps(out, allow_nan=False)
     assert out["model"] == "constant_width" and out["gains"] == [100.0, 400.0]
     assert out["source_impedance_ohm"] == 0.0          # B.1's only impedance
@@ -239,20 +241,15 @@ def test_limit_cycle_command_is_json_ready(tmp_path):
     assert text.count("\n") >= 5 and "constant_width" in text
 
 
-def test_limit_cycle_command_needs_an_impedance_when_the_data_have_two():
-    from fitdf.loop.harmonic import limit_cycle_command
-
+def test_fitted_limit_cycles_need_an_impedance_when_the_data_have_two():
     with pytest.raises(OptionError, match="several source impedances"):
-        limit_cycle_command("permalloy", THESIS_PLANT, [100.0], None, model="constant_width")
+        fitted_limit_cycles("permalloy", THESIS_PLANT, [100.0], None, model="constant_width")
     with pytest.raises(OptionError, match="plant"):
-        limit_cycle_command("B.1", "K/(s+", [100.0], 0.0, model="constant_width")
+        fitted_limit_cycles("B.1", "K/(s+", [100.0], 0.0, model="constant_width")
 
 
 @pytest.mark.slow
 def test_thesis_comparison_runs():
-    from fitdf.loop.harmonic import thesis_limit_cycle_comparison
-    from fitdf.plots.limit_cycles import plot_thesis_comparison
-
     df = thesis_limit_cycle_comparison(seed=0, models="proportional_width")
     assert len(df) == 38
     assert set(df["table"]) == {"B.1", "B.2", "B.3", "B.5"}

@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fitdf.errors import OptionError
-from fitdf.loop.plant import (MAX_DEGREE, Plant, as_loop_plant, format_transfer_function,
-                              parse_plant)
+from fitdf.loop.plant import (MAX_DEGREE, MAX_OPERATIONS, LoopPlant, Plant, as_loop_plant,
+                              format_transfer_function, parse_plant)
 
 
 @pytest.mark.parametrize("text, gain, num, den", [
@@ -28,6 +28,16 @@ from fitdf.loop.plant import (MAX_DEGREE, Plant, as_loop_plant, format_transfer_
     ("Ks/(s+K)", 3.0, [3.0, 0.0], [1.0, 3.0]),
     ("1 + 1/(s+1)", 1.0, [1.0, 2.0], [1.0, 1.0]),
     ("(s^2)^3", 1.0, [1.0, 0, 0, 0, 0, 0, 0], [1.0]),
+    # implicit products and number forms the token pass must get right
+    ("K(1+s)", 2.0, [2.0, 2.0], [1.0]),
+    ("1/2s", 1.0, [0.5, 0.0], [1.0]),                             # (1/2)*s, as written left to right
+    ("s^-2s", 1.0, [1.0], [1.0, 0.0]),                            # (s^-2)*s
+    ("0.25s^2 + 1.e1s", 1.0, [0.25, 10.0, 0.0], [1.0]),
+    ("007s^02", 1.0, [7.0, 0, 0], [1.0]),                         # leading zeros, as before
+    ("sKs", 3.0, [3.0, 0, 0], [1.0]),
+    ("\t2 s ", 1.0, [2.0, 0.0], [1.0]),
+    ("+".join(["1"] * 999), 1.0, [999.0], [1.0]),                 # long chains do not recurse deeply
+    ("s^(-2)", 1.0, [1.0], [1.0, 0, 0]),
 ])
 def test_parse_examples(text, gain, num, den):
     p = parse_plant(text)
@@ -68,6 +78,19 @@ def test_gain_symbol_flags_and_transfer_function():
     ("s +", "column 4 (found end of text)"),
     ("()", "empty parentheses at column 2"),
     ("x" * 3000, "longer than"),
+    # Python syntax beyond the grammar never reaches ast.parse
+    ("1j", "column 1"),
+    ("0x1f", "column 1"),
+    ("s//2", "expected a number, s, K or '(' at column 3"),
+    ("s.", "unexpected character '.' at column 2"),
+    ("lambda", "unknown name 'lambda' at column 1"),
+    ("s # note", "unexpected character '#' at column 3"),
+    ("'s'", "unexpected character"),
+    ("s\n+1", "unexpected character"),
+    ("s^(1+s)", "whole number at column 4"),
+    ("2^s", "whole number at column 3"),
+    ("-(" * 31 + "s" + ")" * 31, "nesting deeper"),               # signs count as nesting, too
+    ("+".join(["K^40"] * (MAX_OPERATIONS // 40)), "more than"),
 ])
 def test_errors_say_what_and_where(text, fragment):
     with pytest.raises(OptionError, match="^plant: ") as info:
@@ -75,6 +98,22 @@ def test_errors_say_what_and_where(text, fragment):
     msg = str(info.value)
     assert fragment in msg
     assert "\n" not in msg
+
+
+def test_one_class_for_the_loop():
+    """Text, tuples and control systems all give a Plant (LoopPlant is the same class); K G0 when linear."""
+    assert LoopPlant is Plant
+    p = parse_plant("K/((1+s)(1+0.25s)(1+1.1s))")
+    assert as_loop_plant("K/((1+s)(1+0.25s)(1+1.1s))") is p and as_loop_plant(p) is p
+    n1, d1 = p.polynomials(1.0)
+    n, d = p.polynomials(7.0)
+    np.testing.assert_array_equal(n, 7.0 * n1)
+    np.testing.assert_array_equal(d, d1)
+    q = parse_plant("K^2/(s+K)")                                  # non-linear: evaluated at each gain
+    np.testing.assert_allclose(q.polynomials(3.0)[0], [9.0])
+    np.testing.assert_allclose(q.response([1.0], [3.0]), [[9.0 / (3.0 + 1j)]])
+    assert str(p) == p.text == p.label == "K/((1+s)(1+0.25s)(1+1.1s))"
+    assert "at s/2" in as_loop_plant(p, time_scale=2.0).label
 
 
 def test_non_text_is_an_option_error():

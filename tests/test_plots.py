@@ -9,6 +9,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 
 import fitdf
+from fitdf.inference.api import resolve_data
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.plots import plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals
 
@@ -87,8 +88,8 @@ def test_plot_fit_draws_excluded_rows(b1):
     assert any("excluded" in t.get_text() for t in fig.legends[0].get_texts())
 
 
-def test_fit_result_plot_method(b1):
-    assert isinstance(b1[0].plot(frequencies=[6.0]), Figure)
+def test_plot_fit_of_one_result_and_frequency(b1):
+    assert isinstance(plot_fit(b1[0], frequencies=[6.0]), Figure)
 
 
 def test_critical_loci_in_the_second_quadrant(joint, b1):
@@ -141,7 +142,7 @@ def test_plot_corner(posterior, b1):
 
 
 def test_plot_cross_impedance(b1):
-    fig = plot_cross_impedance(b1, "B.3", calibration_gains={"proportional_width": 1.0})
+    fig = plot_cross_impedance(b1, resolve_data("B.3"), calibration_gains={"proportional_width": 1.0})
     assert len(fig.axes) == 4 * 4
     bottom_mag = fig.axes[8]
     assert "600 ohm" in bottom_mag.get_ylabel()

@@ -27,19 +27,6 @@ MINI = ReportSettings(models=("proportional_width",), blocks=("B.1",), n_starts=
                       cross=(), limit_cycles=False, workers=1)
 
 
-def _fake_limitcycle_module():
-    """Stand-in for fitdf.loop.harmonic, so the section is tested whatever that module's state."""
-    def thesis_limit_cycle_comparison(seed=0, models=None, n_starts=6):
-        df = pd.DataFrame({"core": ["permalloy"], "source_impedance_ohm": [0.0], "table": ["B.1"],
-                           "model": [models[0] if models else "x"], "system_gain": [20.0], "amplitude_v": [1.2],
-                           "amplitude_pred": [1.1], "amplitude_ratio": [1.1 / 1.2], "omega_rad_s": [3.0],
-                           "omega_pred": [3.3], "omega_ratio": [1.1]})
-        df.attrs.update({"alpha": 1.5, "beta": 2.0, "scales": {"joint": {"alpha": 1.5, "rms_phase_deg": 3.0}}})
-        return df
-
-    return types.SimpleNamespace(thesis_limit_cycle_comparison=thesis_limit_cycle_comparison)
-
-
 _PNG = bytes.fromhex("89504e470d0a1a0a0000000d4948445200000001000000010806000000"
                      "1f15c4890000000d49444154789c6360000002000100e5270ad60000000049454e44ae426082")
 
@@ -68,9 +55,7 @@ def _strip_timing(results: dict) -> dict:
 @pytest.fixture(scope="module")
 def tiny_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("rep") / "report"
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setitem(sys.modules, "fitdf.loop.harmonic", _fake_limitcycle_module())
-        generate_report(out, seed=0, progress=False, settings=TINY)
+    generate_report(out, seed=0, progress=False, settings=TINY)   # every section, the real modules
     return out
 
 
@@ -124,7 +109,10 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
         assert rec["data_summary"]["rows_used"] == len(rec["fits_lsq"]["proportional_width"]["rows"]["input_v"])
     assert r["blocks"]["permalloy-joint"]["source_impedance_ohm"] == [0.0, 600.0]
     assert r["cross_impedance"][0]["rows"][0]["predict_rms_complex"] > 0
-    assert r["limit_cycles"]["available"] and r["limit_cycles"]["rows"][0]["table"] == "B.1"
+    lc = r["limit_cycles"]                      # the real comparison (fitdf.thesis), on the tiny settings
+    assert lc["available"] and "error" not in lc and lc["figure"]
+    assert len(lc["rows"]) == 38 and {row["table"] for row in lc["rows"]} == {"B.1", "B.2", "B.3", "B.5"}
+    assert 0.1 < lc["attrs"]["alpha"] < 100
     assert r["findings"] and any("fits best" in f for f in r["findings"])
     assert r["audit"]["tables"] and r["audit"]["findings"]
 
@@ -147,12 +135,16 @@ def test_markdown_sections(tiny_report, tiny_results):
         assert target in anchors, target
 
 
-def test_limit_cycle_section_without_the_module(monkeypatch):
-    monkeypatch.setitem(sys.modules, "fitdf.loop.harmonic", None)   # import fails
-    assert not sections.limit_cycles_available()
-    rec = sections.limit_cycles_unavailable()
-    blocks = render._limit_blocks({"limit_cycles": rec})
-    assert "not available" in render._md(blocks)[2]
+def test_limit_cycle_section_switched_off_or_failing(monkeypatch, tmp_path):
+    blocks = render._limit_blocks({"limit_cycles": sections.limit_cycles_switched_off()})
+    assert "switched off" in render._md(blocks)[2]
+
+    def boom(**kwargs):
+        raise RuntimeError("no convergence")
+
+    monkeypatch.setattr(sections, "thesis_limit_cycle_comparison", boom)
+    rec = sections.limit_cycle_section(0, ["constant_width"], 1, tmp_path)
+    assert rec == {"available": True, "error": "RuntimeError: no convergence", "models_offered": ["constant_width"]}
 
 
 def test_failed_run_leaves_the_old_report_intact(tmp_path, monkeypatch, stub_figures):

@@ -6,9 +6,11 @@ import pytest
 
 from fitdf.errors import OptionError
 from fitdf.models import get_model
+from fitdf.inference.api import fit
+from fitdf.loop.check import time_domain_check
 from fitdf.loop.simulate import (CoreElement, RelayHysteresis, Saturation, measure_oscillation,
-                              simulate_loop, simulated_describing_function, tabulated_describing_function,
-                              time_domain_check)
+                                 simulate_loop, simulated_describing_function, tabulated_describing_function)
+from fitdf.thesis import THESIS_PLANT
 
 PLANT = "1/(s(s+1)(s+2))"
 
@@ -148,9 +150,6 @@ def test_fitted_core_loop_against_harmonic_balance():
     Measured when written: table-HB vs simulation within 7 % (amplitude) and 3 %
     (frequency); chain-HB vs simulation +19..63 % amplitude, -16..-26 % frequency.
     """
-    from fitdf.inference.api import fit
-    from fitdf.loop.harmonic import THESIS_PLANT
-
     res = fit("B.1", "proportional_width", seed=0, n_starts=1)
     el = CoreElement.from_fit(res, 0.0)
     tab = tabulated_describing_function(el, (0.05, 8.0), (5.0, 40.0), n_amplitude=20, n_omega=6,

@@ -12,21 +12,305 @@ scale, with the winding resistance running along the degenerate direction; a joi
 so does knowing ``r_w``. Predicting one source impedance from the other therefore needs
 ``r_w`` from outside the DF data: :func:`winding_resistance_estimate` gives it from
 Appendix A (turns, wire gauge, core dimensions).
+
+Core geometry and material units
+--------------------------------
+The laws work in winding units (current in A, flux linkage in V s, ``N`` in H). With the
+toroid's turns ``N``, magnetic path length ``l_e`` and iron cross-section ``A_e``
+(:class:`CoreGeometry`, :func:`core_geometry`) they convert to the material units of
+Appendix A::
+
+    H = N i / l_e            (A/m;  1 Oe = 1000 / (4 pi) A/m)
+    B = lambda / (N A_e)     (T;    1 T = 1e4 G)
+    mu_r = L l_e / (mu_0 N^2 A_e)   (an inductance L as relative permeability, i.e.
+                                     gauss/oersted, the unit Appendix A prints)
+
+:func:`appendix_a_ranges` gives the printed material ranges these are compared with.
+
+Assumptions (the thesis prints neither): ``l_e`` is the mean circumference
+``pi (OD + ID) / 2`` (exact for the field averaged over a thin ring; for these cores,
+``OD/ID = 1.25``, the field at the inner radius is 11 % above the mean); the printed
+dimensions are the bare tape-wound core's, not its case's; the iron section is the gross
+section ``(OD - ID) / 2 x h`` times the stacking factor :data:`STACKING_FACTOR`.
 """
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 
+from fitdf.data.datasets import load
 from fitdf.errors import OptionError
 
-__all__ = ["winding_resistance_estimate", "AWG34_OHM_PER_M", "CASE_ALLOWANCE_IN"]
+__all__ = [
+    "winding_resistance_estimate", "AWG34_OHM_PER_M", "CASE_ALLOWANCE_IN",
+    "CoreGeometry", "core_geometry", "appendix_a_ranges", "APPENDIX_A_MATERIAL_QUANTITIES",
+    "MU_0", "A_PER_M_PER_OERSTED", "GAUSS_PER_TESLA", "STACKING_FACTOR", "INCH",
+    "oersted_to_a_per_m", "a_per_m_to_oersted", "tesla_to_gauss", "gauss_to_tesla",
+]
 
 #: Resistance of #34 AWG copper wire (0.160 mm, 20 degC): rho / area = 1.72e-8 / 2.01e-8 m^2.
 AWG34_OHM_PER_M = 0.856
 #: Case wall and clearance added on each side of the tape-wound core's cross-section (inch);
 #: an assumption (the cases' dimensions are not printed), worth about +-20 % on the estimate.
 CASE_ALLOWANCE_IN = 0.06
-_INCH = 0.0254
+#: One inch in metre.
+INCH = 0.0254
+#: Permeability of vacuum (H/m), the classical ``4 pi 1e-7`` (the CGS units of Appendix A
+#: are defined with it; the SI 2019 value differs by 1e-10, relative).
+MU_0 = 4.0e-7 * math.pi
+#: One oersted in A/m: ``1000 / (4 pi)`` = 79.577 A/m.
+A_PER_M_PER_OERSTED = 1000.0 / (4.0 * math.pi)
+#: Gauss per tesla.
+GAUSS_PER_TESLA = 1.0e4
+#: Stacking (space) factor of the tape-wound cores: iron section / gross section.
+#: An assumption: Appendix A prints no tape thickness. Manufacturers' tables for
+#: tape-wound nickel-iron cores give about 0.75 for 1-mil (25 um) tape, 0.83-0.85 for
+#: 2-mil and 0.90 for 4-mil tape; 2-mil tape is the usual gauge of such cores for
+#: audio-frequency and lower work, hence 0.85. ``A_e`` is proportional to it, so every
+#: flux density (B_p, B_r) and relative permeability derived from a fit scales as
+#: ``1 / stacking_factor`` (+13 % at 0.75, -6 % at 0.90; fields H do not depend on it).
+STACKING_FACTOR = 0.85
+
+#: The material quantities of Appendix A that :func:`appendix_a_ranges` returns.
+APPENDIX_A_MATERIAL_QUANTITIES = (
+    "initial_permeability", "maximum_permeability", "coercive_force_Hc",
+    "peak_flux_density_Bp", "residual_induction_Br", "squareness_Br_over_Bp",
+)
+
+
+def oersted_to_a_per_m(h_oe):
+    """Field in A/m from oersted (``1 Oe = 1000 / (4 pi) A/m``)."""
+    return np.asarray(h_oe, dtype=float) * A_PER_M_PER_OERSTED
+
+
+def a_per_m_to_oersted(h):
+    """Field in oersted from A/m."""
+    return np.asarray(h, dtype=float) / A_PER_M_PER_OERSTED
+
+
+def tesla_to_gauss(b):
+    """Induction in gauss from tesla (``1 T = 1e4 G``)."""
+    return np.asarray(b, dtype=float) * GAUSS_PER_TESLA
+
+
+def gauss_to_tesla(b_gauss):
+    """Induction in tesla from gauss."""
+    return np.asarray(b_gauss, dtype=float) / GAUSS_PER_TESLA
+
+
+def _rows(core, hint=""):
+    table = load("appendix_a")
+    rows = table[table["core"] == str(core).lower()]
+    if rows.empty:
+        raise OptionError(f"no Appendix A data for core {core!r} (known cores: "
+                          f"{', '.join(sorted(set(table['core'])))}){hint}")
+    return rows
+
+
+def _value(rows, quantity):
+    return float(rows.loc[rows["quantity"] == quantity, "value_min"].astype(float).iloc[0])
+
+
+@dataclass(frozen=True)
+class CoreGeometry:
+    """Turns and magnetic dimensions of a toroidal core: the link between winding and material units.
+
+    Parameters
+    ----------
+    turns : float
+        Turns ``N`` of the driven winding (the winding whose current and flux linkage the
+        fitted law describes).
+    l_e : float
+        Magnetic path length (m).
+    a_e : float
+        Effective iron cross-section (m^2), stacking factor included.
+    r_winding_estimate : float or None
+        DC resistance of the driven winding (ohm) if known or estimated, else None.
+    name : str
+        Label (the Appendix A core name, or the user's).
+    stacking_factor : float or None
+        Stacking factor used to get ``a_e`` from the gross section (a record only; None
+        when ``a_e`` was given directly).
+
+    Notes
+    -----
+    Conversions (SI): ``H = N i / l_e``, ``B = lambda / (N A_e)``,
+    ``mu_r = L l_e / (mu_0 N^2 A_e)``; their inverses are the methods :meth:`current`,
+    :meth:`flux_linkage` and :meth:`inductance`. Oersted and gauss variants use
+    ``1 Oe = 1000/(4 pi) A/m`` and ``1 T = 1e4 G``. All methods broadcast over arrays.
+    """
+
+    turns: float
+    l_e: float
+    a_e: float
+    r_winding_estimate: float | None = None
+    name: str = ""
+    stacking_factor: float | None = None
+
+    def __post_init__(self):
+        for field_name in ("turns", "l_e", "a_e"):
+            value = getattr(self, field_name)
+            if not (np.isfinite(value) and value > 0):
+                raise OptionError(f"core geometry: {field_name} must be a positive number, got {value!r}")
+
+    @classmethod
+    def from_dimensions(cls, turns, outside_diameter, inside_diameter, height, *,
+                        stacking_factor=STACKING_FACTOR, r_winding_estimate=None, name=""):
+        """Geometry of a tape-wound toroid from its dimensions (SI: metre).
+
+        Parameters
+        ----------
+        turns : float
+            Turns of the driven winding.
+        outside_diameter, inside_diameter, height : float
+            Bare core dimensions (m), ``outside_diameter > inside_diameter``.
+        stacking_factor : float
+            Iron fraction of the gross section, in ``(0, 1]``; see :data:`STACKING_FACTOR`.
+        r_winding_estimate : float, optional
+            Winding resistance (ohm) to carry along.
+        name : str
+            Label.
+
+        Returns
+        -------
+        CoreGeometry
+            ``l_e = pi (OD + ID) / 2`` (mean circumference) and
+            ``a_e = (OD - ID) / 2 * height * stacking_factor``.
+        """
+        od, idia, h = float(outside_diameter), float(inside_diameter), float(height)
+        sf = float(stacking_factor)
+        if not (od > idia > 0 and h > 0):
+            raise OptionError(f"core dimensions: need outside diameter > inside diameter > 0 and height > 0, "
+                              f"got {od!r}, {idia!r}, {h!r}")
+        if not 0 < sf <= 1:
+            raise OptionError(f"stacking factor must lie in (0, 1], got {sf!r}")
+        return cls(turns=float(turns), l_e=math.pi * (od + idia) / 2.0, a_e=(od - idia) / 2.0 * h * sf,
+                   r_winding_estimate=None if r_winding_estimate is None else float(r_winding_estimate),
+                   name=str(name), stacking_factor=sf)
+
+    # --- scale factors -------------------------------------------------------------------
+    @property
+    def field_per_ampere(self) -> float:
+        """``N / l_e``: field (A/m) per ampere of winding current."""
+        return self.turns / self.l_e
+
+    @property
+    def inductance_per_permeability(self) -> float:
+        """``mu_0 N^2 A_e / l_e``: inductance (H) per unit relative permeability."""
+        return MU_0 * self.turns**2 * self.a_e / self.l_e
+
+    # --- winding -> material -------------------------------------------------------------
+    def field(self, current):
+        """Field ``H = N i / l_e`` (A/m) of a winding current ``i`` (A)."""
+        return np.asarray(current, dtype=float) * self.field_per_ampere
+
+    def field_oe(self, current):
+        """Field (oersted) of a winding current (A)."""
+        return a_per_m_to_oersted(self.field(current))
+
+    def induction(self, flux_linkage):
+        """Induction ``B = lambda / (N A_e)`` (T) of a flux linkage (V s)."""
+        return np.asarray(flux_linkage, dtype=float) / (self.turns * self.a_e)
+
+    def induction_gauss(self, flux_linkage):
+        """Induction (gauss) of a flux linkage (V s)."""
+        return tesla_to_gauss(self.induction(flux_linkage))
+
+    def relative_permeability(self, inductance):
+        """``mu_r = L l_e / (mu_0 N^2 A_e)`` of an inductance ``L`` (H) (numerically gauss/oersted)."""
+        return np.asarray(inductance, dtype=float) / self.inductance_per_permeability
+
+    # --- material -> winding -------------------------------------------------------------
+    def current(self, field):
+        """Winding current (A) giving the field ``H`` (A/m)."""
+        return np.asarray(field, dtype=float) / self.field_per_ampere
+
+    def current_oe(self, field_oe):
+        """Winding current (A) giving the field ``H`` (oersted)."""
+        return self.current(oersted_to_a_per_m(field_oe))
+
+    def flux_linkage(self, induction):
+        """Flux linkage (V s) of the induction ``B`` (T)."""
+        return np.asarray(induction, dtype=float) * (self.turns * self.a_e)
+
+    def flux_linkage_gauss(self, induction_gauss):
+        """Flux linkage (V s) of the induction ``B`` (gauss)."""
+        return self.flux_linkage(gauss_to_tesla(induction_gauss))
+
+    def inductance(self, mu_r):
+        """Inductance (H) of the winding on a core of relative permeability ``mu_r``."""
+        return np.asarray(mu_r, dtype=float) * self.inductance_per_permeability
+
+    def to_dict(self) -> dict:
+        """Plain-float summary (SI), with the scale factors."""
+        return {"name": self.name, "turns": float(self.turns), "l_e_m": float(self.l_e),
+                "a_e_m2": float(self.a_e), "stacking_factor": self.stacking_factor,
+                "r_winding_estimate_ohm": self.r_winding_estimate,
+                "field_a_per_m_per_ampere": float(self.field_per_ampere),
+                "inductance_h_per_mu_r": float(self.inductance_per_permeability)}
+
+
+def core_geometry(core: str, *, stacking_factor=STACKING_FACTOR) -> CoreGeometry:
+    """Geometry of a thesis core from Appendix A (primary winding, bare core dimensions).
+
+    Parameters
+    ----------
+    core : str
+        ``"permalloy"``, ``"deltamax"`` or ``"supermalloy"``.
+    stacking_factor : float
+        Iron fraction of the gross section; the default :data:`STACKING_FACTOR` (0.85)
+        is an assumption, see there.
+
+    Returns
+    -------
+    CoreGeometry
+        With ``r_winding_estimate`` from :func:`winding_resistance_estimate`. Permalloy and
+        Supermalloy (1250 turns, 2.5 x 2.0 x 0.5 in): ``l_e = 0.1795 m``,
+        ``a_e = 6.85e-5 m^2`` at 0.85; Deltamax (2000 turns, 1.25 x 1.0 x 0.125 in):
+        ``l_e = 0.0898 m``, ``a_e = 8.57e-6 m^2``.
+    """
+    rows = _rows(core, ": give the geometry with CoreGeometry.from_dimensions")
+    od, idia, h = (_value(rows, q) * INCH for q in ("core_outside_diameter", "core_inside_diameter", "core_height"))
+    return CoreGeometry.from_dimensions(_value(rows, "primary_turns"), od, idia, h, stacking_factor=stacking_factor,
+                                        r_winding_estimate=winding_resistance_estimate(core),
+                                        name=str(core).lower())
+
+
+def appendix_a_ranges(core: str) -> dict[str, tuple[float, float | None, str]]:
+    """Printed material ranges of a thesis core (Appendix A), in its units.
+
+    Parameters
+    ----------
+    core : str
+        ``"permalloy"``, ``"deltamax"`` or ``"supermalloy"``.
+
+    Returns
+    -------
+    dict
+        ``quantity -> (low, high, unit)`` for the quantities of
+        :data:`APPENDIX_A_MATERIAL_QUANTITIES`: permeabilities in gauss/oersted, inductions
+        in gauss, ``coercive_force_Hc`` in oersted, the squareness ratio with unit ``""``.
+        ``high`` is None where only a minimum is printed (Deltamax squareness "0.92 min.").
+        Where the table repeats a quantity over several rows the result is the union
+        ``[min of lows, max of highs]``; for the coercive force this joins three ranges
+        whose test conditions (peak fields) the OCR lost, so it is wider than any one of
+        them (Permalloy 0.02-0.25 Oe). The row-to-quantity assignment of the garbled
+        Appendix A is that of ``datasets/appendix_a.csv`` (see its notes column).
+    """
+    rows = _rows(core)
+    out = {}
+    for quantity in APPENDIX_A_MATERIAL_QUANTITIES:
+        sel = rows[rows["quantity"] == quantity]
+        if sel.empty:
+            continue
+        lows = sel["value_min"].astype(float)
+        highs = sel["value_max"].astype(float)
+        high = None if highs.isna().any() else float(highs.max())
+        unit = sel["unit"].fillna("").astype(str).iloc[0]
+        out[quantity] = (float(lows.min()), high, "" if unit == "nan" else unit)
+    return out
 
 
 def winding_resistance_estimate(core: str) -> float:
@@ -38,17 +322,8 @@ def winding_resistance_estimate(core: str) -> float:
     2.5 x 2.0 x 0.5 in core) and 43 ohm (Deltamax: 2000 turns on 1.25 x 1.0 x 0.125 in).
     An estimate to perhaps 30 %: the thesis prints no winding resistance.
     """
-    from fitdf.data.datasets import load
-
-    table = load("appendix_a")
-    rows = table[table["core"] == str(core).lower()]
-    if rows.empty:
-        raise OptionError(f"no Appendix A data for core {core!r}: give the winding resistance explicitly")
-
-    def value(quantity):
-        return float(rows.loc[rows["quantity"] == quantity, "value_min"].astype(float).iloc[0])
-
-    od, idia, h = value("core_outside_diameter"), value("core_inside_diameter"), value("core_height")
-    turns = value("primary_turns")
-    turn_m = 2.0 * ((od - idia) / 2.0 + h + 4.0 * CASE_ALLOWANCE_IN) * _INCH
+    rows = _rows(core, ": give the winding resistance explicitly")
+    od, idia, h = (_value(rows, q) for q in ("core_outside_diameter", "core_inside_diameter", "core_height"))
+    turns = _value(rows, "primary_turns")
+    turn_m = 2.0 * ((od - idia) / 2.0 + h + 4.0 * CASE_ALLOWANCE_IN) * INCH
     return float(np.round(turns * turn_m * AWG34_OHM_PER_M, 1))

@@ -5,8 +5,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from fitdf.errors import DataError, OptionError
+from fitdf.data import audit, datasets
 from fitdf.data.fitdata import FitData, NoiseModel
+from fitdf.errors import DataError, OptionError
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.mcmc import fit_mcmc
@@ -22,9 +23,6 @@ def resolve_data(data, policy: str = "default", source_impedance=None, label: st
     The audit's row ``policy`` ("default", "all" or "strict", see datasets/README.md)
     decides which printed rows are used; ``source_impedance`` (ohm) keeps only those rows.
     """
-    from fitdf.data import audit
-    from fitdf.data import datasets
-
     if isinstance(data, FitData):
         return data
     if isinstance(data, (str, Path)):

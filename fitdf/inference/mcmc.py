@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import warnings
 
+import arviz as az
 import emcee
 import numpy as np
 import pandas as pd
@@ -34,9 +35,9 @@ from fitdf.inference.problem import FitProblem
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.results import FitResult, PosteriorResult, residual_table
 
-__all__ = ["fit_mcmc", "NOISE_BOUNDS"]
+__all__ = ["fit_mcmc", "default_moves", "LogPosterior", "NOISE_BOUNDS"]
 
-def DEFAULT_MOVES():
+def default_moves():
     """Differential-evolution moves: the posteriors here are correlated and skewed (winding
     resistance against inductance), where DE mixes several times faster than the stretch move."""
     return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
@@ -88,19 +89,22 @@ def _initial_ball(problem, lsq: FitResult, n_walkers, rng, bounds):
     return np.clip(p0, lo + 1e-9 * width, hi - 1e-9 * width)
 
 
-def _arviz_diagnostics(chain, names, sub_chain, loglik):
-    """R-hat and bulk ESS on the whole post-burn chain; PSIS-LOO and WAIC on a subsample."""
-    import arviz as az
+def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
+    """R-hat and bulk ESS on the whole post-burn chain; PSIS-LOO and WAIC on a subsample.
+
+    ``post_burn`` and ``loo_draws`` are emcee arrays ``(draw, walker, parameter)``; ArviZ
+    wants ``(chain, draw)``, so walkers become ArviZ chains.
+    """
 
     def as_posterior(c):
         return {n: np.swapaxes(c[..., i], 0, 1) for i, n in enumerate(names)}  # (chain, draw)
 
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        full = az.from_dict(posterior=as_posterior(chain))
+        full = az.from_dict(posterior=as_posterior(post_burn))
         rhat = az.rhat(full)
         ess = az.ess(full)
-        idata = az.from_dict(posterior=as_posterior(sub_chain),
+        idata = az.from_dict(posterior=as_posterior(loo_draws),
                              log_likelihood={"df": np.swapaxes(loglik, 0, 1)})
         loo = az.loo(idata, pointwise=True)
         waic = az.waic(idata)
@@ -138,7 +142,7 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     n_walkers = n_walkers or max(32, 2 * ndim + 2)
     n_walkers += n_walkers % 2
     p0 = _initial_ball(problem, lsq, n_walkers, rng, logpost.bounds)
-    moves = moves if moves is not None else DEFAULT_MOVES()
+    moves = moves if moves is not None else default_moves()
     sampler = emcee.EnsembleSampler(n_walkers, ndim, logpost, vectorize=True, moves=moves)
     sampler.random_state = np.random.RandomState(seed).get_state()
     max_steps = max(n_steps, max_steps or n_steps)
@@ -152,16 +156,16 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     tau_max = float(np.nanmax(tau))
     burn = min(int(np.ceil(3 * tau_max)), n_steps // 2)
     thin = max(1, int(np.floor(np.nanmin(tau) / 2)))
-    full_chain = sampler.get_chain(discard=burn)  # (draws, walkers, ndim)
-    chain = full_chain[::thin]
+    post_burn = sampler.get_chain(discard=burn)  # (draws, walkers, ndim)
+    samples = post_burn[::thin]
     names = problem.names + ["sigma_magnitude", "sigma_phase_deg"]
 
-    flat = chain.reshape(-1, ndim)
+    flat = samples.reshape(-1, ndim)
     # PSIS-LOO needs the pointwise log-likelihood: evaluate it on at most max_loo_draws draws
     step = max(1, int(np.ceil(flat.shape[0] / max_loo_draws)))
-    sub_chain = chain[::step] if chain.shape[0] >= 2 * step else chain
-    loglik = logpost.pointwise(sub_chain)  # (draws, walkers, n)
-    diag, caught = _arviz_diagnostics(full_chain, names, sub_chain, loglik)
+    loo_draws = samples[::step] if samples.shape[0] >= 2 * step else samples
+    loglik = logpost.pointwise(loo_draws)  # (draws, walkers, n)
+    diag, caught = _arviz_diagnostics(post_burn, names, loo_draws, loglik)
     diag.update({"tau": dict(zip(names, map(float, tau))), "n_steps": n_steps, "n_walkers": n_walkers,
                  "burn": burn, "thin": thin, "steps_over_tau": float(n_steps / tau_max),
                  "acceptance_mean": float(np.mean(sampler.acceptance_fraction)),
@@ -188,7 +192,7 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     # Point estimate: the draw of highest posterior (MAP). The per-parameter median can
     # combine different modes of a multimodal posterior into a point that fits none.
     log_prob = sampler.get_log_prob(discard=burn)
-    best_draw = full_chain.reshape(-1, ndim)[int(np.argmax(log_prob.reshape(-1)))]
+    best_draw = post_burn.reshape(-1, ndim)[int(np.argmax(log_prob.reshape(-1)))]
     median_internal = np.median(flat[:, :P], axis=0)
     point = best_draw[:P]
     chi2_point = float(np.sum(problem.weighted_residuals(point) ** 2))
@@ -221,4 +225,4 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
                            label=problem.data.label, values=values, stderr=stderr, intervals=intervals,
                            correlations=corr, metrics=metrics, residuals=residual_table(problem, predicted),
                            warnings=warns, info=info, problem=problem, internal=point,
-                           samples=chain[..., :P], noise_samples=10 ** chain[..., P:], diagnostics=diag)
+                           samples=samples[..., :P], noise_samples=10 ** samples[..., P:], diagnostics=diag)

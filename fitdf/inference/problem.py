@@ -25,13 +25,9 @@ from fitdf.chains import get_chain
 from fitdf.errors import ModelError
 from fitdf.data.fitdata import FitData, NoiseModel
 from fitdf.models import get_model
-from fitdf.params import ParamSpec
+from fitdf.params import PER_TABLE, ParamSpec, table_parameter
 
 __all__ = ["FitProblem"]
-
-# Per-table calibration gains multiply the chain's output (the footnote factors differ by table).
-_PER_TABLE = ("gain",)
-
 
 class FitProblem:
     """Predictions and residuals of ``model`` seen through ``chain`` on ``data``.
@@ -59,9 +55,9 @@ class FitProblem:
         chain_specs = []
         self._gain_specs = []
         for spec in self.chain.params:
-            if spec.name in _PER_TABLE and len(groups) > 1:
+            if spec.name in PER_TABLE and len(groups) > 1:
                 for g in groups:  # one calibration gain per table in a joint fit
-                    s = replace(spec, name=f"{spec.name}[{g}]", description=f"{spec.description} (table {g})")
+                    s = replace(spec, name=table_parameter(spec.name, g), description=f"{spec.description} (table {g})")
                     chain_specs.append(s)
                     self._gain_specs.append((s.name, g))
             else:
@@ -74,9 +70,6 @@ class FitProblem:
         self.specs: list[ParamSpec] = [s for s in self.all_specs if s.name not in self.fixed]
         self.names = [s.name for s in self.specs]
         self._group_index = {g: data.group == g for g in groups}
-        import inspect
-
-        self._chain_kwargs = set(inspect.signature(self.chain.predict).parameters)
         self.warm_current = None
 
     # ---------------------------------------------------------------- coordinates
@@ -116,20 +109,17 @@ class FitProblem:
         c_specs = self.chain.params
         c_values = []
         for s in c_specs:
-            if s.name in _PER_TABLE:
+            if s.name in PER_TABLE:
                 c_values.append(np.ones_like(np.asarray(values[self.model.params[0].name], float)))
             else:
                 c_values.append(np.asarray(values[s.name], float))
         c_theta = np.stack(c_values, axis=-1) if c_values else np.zeros(m_theta.shape[:-1] + (0,))
-        kw = {}
-        if warm is not None and "initial_current" in self._chain_kwargs:
-            kw["initial_current"] = warm
         pred = self.chain.predict(self.model, np.asarray(amplitude, float), np.asarray(frequency, float),
-                                  np.asarray(source_impedance, float), m_theta, c_theta, **kw)
+                                  np.asarray(source_impedance, float), m_theta, c_theta, initial_current=warm)
         return pred * self._gain_per_row(values, np.asarray(amplitude).size, group)
 
     def _gain_per_row(self, values, n, group):
-        if not any(s.name in _PER_TABLE for s in self.chain.params):
+        if not any(s.name in PER_TABLE for s in self.chain.params):
             return 1.0
         if not self._gain_specs:
             g = np.asarray(values["gain"], float)
@@ -153,11 +143,9 @@ class FitProblem:
         Fixed once, so every later evaluation is independent of the evaluation history.
         Only convergence speed changes: the solver still converges to its tolerance.
         """
-        if "initial_current" not in self._chain_kwargs or not hasattr(self.chain, "core_current"):
-            return
         values = self.full_natural(np.asarray(internal, float))
         m_theta = np.array([float(values[s.name]) for s in self.model.params])
-        c_theta = np.array([1.0 if s.name in _PER_TABLE else float(values[s.name]) for s in self.chain.params])
+        c_theta = np.array([1.0 if s.name in PER_TABLE else float(values[s.name]) for s in self.chain.params])
         d = self.data
         self.warm_current = np.asarray(self.chain.core_current(self.model, d.amplitude, d.frequency,
                                                                d.source_impedance, m_theta, c_theta))

@@ -11,22 +11,35 @@ Ranking
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
+from fitdf.chains import get_chain
+from fitdf.data.cores import winding_resistance_estimate
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit, resolve_data
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.metrics import residual_metrics
 from fitdf.models import model_names
+from fitdf.params import PER_TABLE, parameter_base
 
-__all__ = ["compare", "fit_all", "ranking_table", "cross_validate", "cross_impedance", "RANK_COLUMNS"]
+__all__ = ["compare", "Comparison", "compare_fits", "fit_all", "ranking_table", "best_by_aicc", "cross_validate",
+           "cross_impedance", "RANK_COLUMNS", "METHOD_CHOICES"]
 
 #: Columns a ranking can be ordered by, and whether larger is better.
 RANK_COLUMNS = {"rms_complex": False, "rms_magnitude": False, "rms_phase_deg": False, "redchi": False,
                 "aicc": False, "bic": False, "looic": False, "waic": False, "cv_rms_complex": False,
                 "n_params": False}
+#: ``method`` choices of :func:`compare` and the fits each one runs.
+METHOD_CHOICES = {"lsq": ("lsq",), "mcmc": ("mcmc",), "both": ("lsq", "mcmc")}
+
+
+def best_by_aicc(results):
+    """The result with the lowest AICc (the first of equals)."""
+    return min(results, key=lambda r: r.metrics["aicc"])
 
 
 def fit_all(data, models=None, chains=("winding",), methods=("lsq",), seed=0, progress=None, **kw) -> list:
@@ -116,22 +129,43 @@ def _ties(results, table) -> list[str]:
     return out
 
 
-def compare(data, models=None, chains=("winding",), method="lsq", seed=0, rank_by="rms_complex",
-            cross_validation=True, progress=None, **kw) -> pd.DataFrame:
-    """Fit every model and return the ranking as a DataFrame (see the module docstring).
+@dataclass(frozen=True)
+class Comparison:
+    """Fitted results and their ranking (:func:`compare_fits`)."""
 
-    ``method`` is "lsq", "mcmc" or "both". The fitted results are kept in
-    ``table.attrs["results"]``.
+    table: pd.DataFrame
+    results: tuple
+
+    @property
+    def best(self):
+        """The result ranked first."""
+        key = tuple(self.table.iloc[0][["model", "chain", "method"]])
+        return next(r for r in self.results if (r.model, r.chain, r.method) == key)
+
+
+def compare_fits(data, models=None, chains=("winding",), method="lsq", seed=0, rank_by="rms_complex",
+                 cross_validation=True, progress=None, **kw) -> Comparison:
+    """Fit every model (:func:`fit_all`), cross-validate the least-squares fits, rank them.
+
+    ``method`` is "lsq", "mcmc" or "both"; other keywords go to :func:`fitdf.fit`.
     """
-    methods = {"lsq": ("lsq",), "mcmc": ("mcmc",), "both": ("lsq", "mcmc")}.get(method)
+    methods = METHOD_CHOICES.get(method)
     if methods is None:
         raise OptionError(f"unknown method {method!r}; choose lsq, mcmc or both")
     results = fit_all(data, models, chains, methods, seed=seed, progress=progress, **kw)
     cv = {i: cross_validate(r, seed=seed) for i, r in enumerate(results) if r.method == "lsq"} \
         if cross_validation else None
-    table = ranking_table(results, rank_by, cv)
-    table.attrs["results"] = results
-    return table
+    return Comparison(ranking_table(results, rank_by, cv), tuple(results))
+
+
+def compare(data, models=None, chains=("winding",), method="lsq", seed=0, rank_by="rms_complex",
+            cross_validation=True, progress=None, **kw) -> pd.DataFrame:
+    """The ranking table of :func:`compare_fits` (see the module docstring).
+
+    For the fitted results as well, call :func:`compare_fits`, or :func:`fit_all` and
+    :func:`ranking_table`.
+    """
+    return compare_fits(data, models, chains, method, seed, rank_by, cross_validation, progress, **kw).table
 
 
 def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=600.0, seed=0,
@@ -146,9 +180,6 @@ def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=
     their DF with different calibration factors (see the audit), so the target table's
     calibration ``gain`` -- and only that -- is fitted on the target rows.
     """
-    from fitdf.chains import get_chain
-    from fitdf.data.cores import winding_resistance_estimate
-
     train = resolve_data(core, policy, train_ohm)
     test = resolve_data(core, policy, test_ohm)
     fixed0 = {}
@@ -157,12 +188,12 @@ def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=
     rows = []
     for model in list(models or model_names()):
         fitted = fit(train, model, chain=chain, seed=seed, n_starts=n_starts, fixed=fixed0)
-        fixed = {k: v for k, v in fitted.values.items() if not k.startswith("gain")}
+        fixed = {k: v for k, v in fitted.values.items() if parameter_base(k) not in PER_TABLE}
         target = FitProblem(test, model, chain, fitted.problem.noise, fixed=fixed)
         if target.ndim:
             calibrated = fit_lsq(target, seed=seed, n_starts=2)
             pred = target.predict(calibrated.internal)
-            gain = {k: v for k, v in calibrated.values.items() if k.startswith("gain")}
+            gain = {k: v for k, v in calibrated.values.items() if parameter_base(k) in PER_TABLE}
         else:
             pred = target.predict(np.zeros(0))
             gain = {}

@@ -148,12 +148,6 @@ class FitResult:
             "rows_used": self.residuals.to_dict(orient="records"),
         })
 
-    def plot(self, **kwargs):
-        """Figure of measured and fitted magnitude and phase against input (see fitdf.plots)."""
-        from fitdf.plots import plot_fit
-
-        return plot_fit(self, **kwargs)
-
 
 @dataclass(frozen=True)
 class PosteriorResult(FitResult):

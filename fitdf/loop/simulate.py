@@ -47,12 +47,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from scipy import signal
+from scipy.interpolate import RegularGridInterpolator
 
+from fitdf.chains import get_chain
 from fitdf.errors import OptionError
 from fitdf.loop.plant import as_loop_plant
+from fitdf.params import calibration_gain
 
 __all__ = ["Saturation", "RelayHysteresis", "CoreElement", "TimeResponse", "simulate_loop",
-           "measure_oscillation", "time_domain_check", "simulated_describing_function",
+           "measure_oscillation", "simulated_describing_function",
            "tabulated_describing_function"]
 
 
@@ -154,7 +157,7 @@ class CoreElement:
         chain = result.problem.chain.name
         values = result.values
         theta = {p.name: float(values[p.name]) for p in model.params}
-        gain = float(values.get("gain", next((v for k, v in values.items() if k.startswith("gain[")), 1.0)))
+        gain = calibration_gain(values)
         ctheta = {p.name: float(values.get(p.name, gain if p.name == "gain" else p.default))
                   for p in result.problem.chain.params}
         if chain == "winding":
@@ -166,8 +169,6 @@ class CoreElement:
 
     def describing_function(self, A, omega):
         """The DF this element has under sinusoidal input (the chain's prediction)."""
-        from fitdf.chains import get_chain
-
         ch = get_chain(self.chain)
         A, omega = np.broadcast_arrays(np.asarray(A, float), np.asarray(omega, float))
         m = np.array([self.theta[p.name] for p in self.model.params])
@@ -430,39 +431,6 @@ def measure_oscillation(t, x, settle_fraction: float = 0.6) -> dict:
             "frequency_hz": float(omega / (2 * np.pi)), "n_cycles": int(tc.size - 1), "drift": float(drift)}
 
 
-def time_domain_check(plant, element, gains, *, nonlinearity=None, amplitude_range, omega_range=None,
-                      periods: float = 60.0, steps_per_period: int = 200, initial_output=0.1,
-                      time_scale: float = 1.0, settle_fraction: float = 0.6) -> pd.DataFrame:
-    """Harmonic balance vs simulation, one row per gain.
-
-    The DF used for harmonic balance is ``nonlinearity`` (default: the element's own
-    ``describing_function``); the step and duration follow from the largest stable
-    harmonic-balance frequency (``steps_per_period`` per period, ``periods`` periods).
-    Columns: gain, ``hb_amplitude``, ``hb_omega``, simulated ``amplitude`` (half
-    peak-to-peak at the element input), ``amplitude_h1``, ``omega``, ``plant_output_amplitude``,
-    and the relative differences ``amplitude_error`` (peak) / ``amplitude_h1_error`` / ``omega_error``.
-    """
-    from fitdf.loop.harmonic import limit_cycles
-
-    N = nonlinearity if nonlinearity is not None else element.describing_function
-    hb = limit_cycles(plant, N, gains, amplitude_range=amplitude_range, omega_range=omega_range,
-                      time_scale=time_scale).stable_cycles()
-    w = hb["omega_rad_s"].to_numpy(float)
-    if not np.isfinite(w).any():
-        raise OptionError("harmonic balance finds no stable limit cycle at these gains")
-    wmax = np.nanmax(w)
-    dt = 2 * np.pi / wmax / steps_per_period
-    t_end = periods * 2 * np.pi / np.nanmin(w)
-    sim = simulate_loop(plant, element, hb["gain"].to_numpy(float), t_end=t_end, dt=dt,
-                        initial_output=initial_output, time_scale=time_scale).measure(settle_fraction)
-    out = pd.DataFrame({"gain": hb["gain"], "hb_amplitude": hb["amplitude"], "hb_omega": hb["omega_rad_s"]})
-    out = pd.concat([out, sim.drop(columns="gain")], axis=1)
-    out["amplitude_error"] = out["amplitude"] / out["hb_amplitude"] - 1
-    out["amplitude_h1_error"] = out["amplitude_h1"] / out["hb_amplitude"] - 1
-    out["omega_error"] = out["omega"] / out["hb_omega"] - 1
-    return out
-
-
 def simulated_describing_function(element, amplitude, frequency_hz, *, cycles: int = 8, settle_cycles: int = 4,
                                   steps_per_period: int = 1000) -> np.ndarray:
     """The DF an element really has under a sinusoidal *voltage* ``v = A sin(2 pi f t)``.
@@ -506,8 +474,6 @@ def tabulated_describing_function(element, amplitude_range, omega_range, *, n_am
     Harmonic balance on this table isolates the one approximation that is left, the
     sinusoidal *error signal* of the loop, from the chain's sinusoidal-current DF.
     """
-    from scipy.interpolate import RegularGridInterpolator
-
     la = np.linspace(*np.log(amplitude_range), int(n_amplitude))
     lw = np.linspace(*np.log(omega_range), int(n_omega))
     LA, LW = np.meshgrid(la, lw, indexing="ij")

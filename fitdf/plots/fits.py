@@ -24,15 +24,15 @@ Examples
 """
 from __future__ import annotations
 
+import corner
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from fitdf.plots._figure import new_figure
+
 __all__ = ["plot_fit", "plot_critical_loci", "plot_residuals", "plot_corner", "plot_cross_impedance"]
 
-DPI = 100
 MAG_LABEL = "|DF| (V/V)"
 PHASE_LABEL = "phase lead (deg)"
 AMP_LABEL = "input amplitude (V)"
@@ -47,12 +47,6 @@ def _as_list(results):
     if not out:
         raise ValueError("no results to plot")
     return out
-
-
-def _figure(figsize, layout="constrained"):
-    fig = Figure(figsize=figsize, dpi=DPI, layout=layout)
-    FigureCanvasAgg(fig)
-    return fig
 
 
 def _label(result, results):
@@ -207,7 +201,7 @@ def plot_fit(results, frequencies=None, band=None, source_impedance=None, exclud
     band_idx = next((i for i, r in enumerate(results) if band and r.model == band.model), 0)
     rs_list, freqs = _panels(data, frequencies, source_impedance)
     many = len(rs_list) > 1
-    fig = _figure((max(3.1 * len(freqs), 6.5), 2.3 * 2 * len(rs_list) + 1.4))
+    fig = new_figure((max(3.1 * len(freqs), 6.5), 2.3 * 2 * len(rs_list) + 1.4))
     axes = _pair_axes(fig, len(rs_list), len(freqs))
     for p, rs in enumerate(rs_list):
         for j, f in enumerate(freqs):
@@ -287,7 +281,7 @@ def plot_critical_loci(results, frequencies=None, top=1, source_impedance=None, 
             raise ValueError("ax= needs a single source impedance; pass source_impedance=")
         fig, axes = ax.figure, [ax]
     else:
-        fig = _figure((6.2 * len(rs_list) + 0.6, 5.6))
+        fig = new_figure((6.2 * len(rs_list) + 0.6, 5.6))
         axes = list(fig.subplots(1, len(rs_list), squeeze=False)[0])
     curves = results[:max(int(top), 0)]
     for a, rs in zip(axes, rs_list):
@@ -348,7 +342,7 @@ def plot_residuals(results, top=3, title=None):
         ``2 x min(top, len(results))`` axes.
     """
     results = _as_list(results)[:max(int(top), 1)]
-    fig = _figure((max(3.6 * len(results), 6.5), 5.6))
+    fig = new_figure((max(3.6 * len(results), 6.5), 5.6))
     axes = fig.subplots(2, len(results), squeeze=False, sharey="row", sharex="col")
     freqs = sorted(set(np.concatenate([r.residuals["frequency_hz"].to_numpy(float) for r in results]).tolist()))
     impedances = sorted(set(np.concatenate([r.residuals["source_impedance_ohm"].to_numpy(float)
@@ -403,8 +397,6 @@ def plot_corner(posterior, max_draws=4000, truths=None, title=None):
     matplotlib.figure.Figure
         ``P x P`` axes for ``P`` sampled parameters.
     """
-    import corner
-
     if not hasattr(posterior, "flat_internal"):
         raise TypeError("plot_corner needs a PosteriorResult (fit with method='mcmc')")
     problem = posterior.problem
@@ -426,7 +418,7 @@ def plot_corner(posterior, max_draws=4000, truths=None, title=None):
     samples = np.column_stack(cols)
     P = samples.shape[1]
     size = max(6.0, 1.55 * P + 1.0)
-    fig = _figure((size, size), layout=None)
+    fig = new_figure((size, size), layout=None)
     corner.corner(samples, fig=fig, labels=labels, quantiles=[0.16, 0.5, 0.84], show_titles=True,
                   title_fmt=".3g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8},
                   truths=None if truths is None else mark, max_n_ticks=3, plot_datapoints=False,
@@ -458,24 +450,22 @@ def plot_cross_impedance(train_results, test_data, calibration_gains=None, frequ
     ----------
     train_results : FitResult or list of them
         Fitted at the training impedance (first = best).
-    test_data : FitData, dataset name or DataFrame
-        The rows to predict (resolved with the default row policy).
+    test_data : FitData
+        The rows to predict (e.g. ``fitdf.inference.api.resolve_data("B.3")``).
 
     Returns
     -------
     matplotlib.figure.Figure
         ``4`` rows (training magnitude/phase, predicted magnitude/phase) by frequency.
     """
-    from fitdf.inference.api import resolve_data
-
     results = _as_list(train_results)
     train = results[0].problem.data
-    test = resolve_data(test_data)
+    test = test_data
     gains = dict(calibration_gains or {})
     rs_train, rs_test = _rs_list(train, None), _rs_list(test, None)
     freqs = sorted(set(train.frequency.tolist()) | set(test.frequency.tolist())) if frequencies is None else \
         [float(f) for f in np.atleast_1d(frequencies)]
-    fig = _figure((max(3.1 * len(freqs), 6.5), 2.3 * 4 + 1.4))
+    fig = new_figure((max(3.1 * len(freqs), 6.5), 2.3 * 4 + 1.4))
     axes = _pair_axes(fig, 2, len(freqs))
     for p, (data, rs, predicted) in enumerate(((train, rs_train[0], False), (test, rs_test[0], True))):
         for j, f in enumerate(freqs):

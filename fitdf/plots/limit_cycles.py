@@ -17,20 +17,12 @@ an error under ``filterwarnings = error``). Every function returns the Figure.
 from __future__ import annotations
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
+
+from fitdf.plots._figure import new_figure
 
 __all__ = ["plot_nyquist", "plot_thesis_comparison", "plot_time_response"]
 
 FIGSIZE = (6.5, 5.0)
-DPI = 110
-
-
-def _figure(nrows=1, ncols=1, figsize=FIGSIZE, **kw):
-    fig = Figure(figsize=figsize, dpi=DPI, layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
-    return fig, axes
 
 
 def _pick(values, n):
@@ -61,7 +53,7 @@ def plot_nyquist(response, ax=None, gains=None, omegas=None, n_gains=3, n_loci=4
     matplotlib.figure.Figure
     """
     if ax is None:
-        fig, axes = _figure()
+        fig, axes = new_figure(FIGSIZE, 1, 1)
         ax = axes[0, 0]
     fig = ax.figure
     lp, N = response.plant, response.describing_function
@@ -105,7 +97,7 @@ def plot_nyquist(response, ax=None, gains=None, omegas=None, n_gains=3, n_loci=4
 
 
 def plot_thesis_comparison(df):
-    """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.loop.harmonic.thesis_limit_cycle_comparison`).
+    """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.thesis.thesis_limit_cycle_comparison`).
 
     Columns are the cores, rows the amplitude and the angular frequency against the
     system gain. Markers: measured (circles 0 ohm, squares 600 ohm; x: the values
@@ -114,7 +106,7 @@ def plot_thesis_comparison(df):
     below which no cycle exists.
     """
     cores = list(dict.fromkeys(df["core"]))
-    fig, axes = _figure(2, len(cores), figsize=(4.2 * len(cores), 6.2), sharex="col")
+    fig, axes = new_figure((4.2 * len(cores), 6.2), 2, len(cores), sharex="col")
     for j, core in enumerate(cores):
         sub = df[df["core"] == core]
         for k, (rs, block) in enumerate(sub.groupby("source_impedance_ohm")):
@@ -155,7 +147,7 @@ def plot_time_response(response, index=0, hb=None):
     ``hb`` (a :class:`~fitdf.loop.harmonic.LimitCycle`) draws the predicted amplitude.
     """
     n = 3 if response.probe is not None else 2
-    fig, axes = _figure(n, 1, figsize=(6.5, 1.8 * n + 0.8), sharex=True)
+    fig, axes = new_figure((6.5, 1.8 * n + 0.8), n, 1, sharex=True)
     t = response.t
     axes[0, 0].plot(t, response.error[index], lw=0.8)
     axes[0, 0].set_ylabel("element input e")

@@ -15,9 +15,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
+from fitdf.plots._figure import DPI, new_figure
 from fitdf.models.cubic_hc import KS_MAGNET_STEEL, CubicHc, cubic_width, ks_magnet_steel_hc
 from fitdf.models.proportional_width import (ProportionalWidth, ProportionalWidthFig42,
                                          saturation_amplitude)
@@ -26,7 +25,6 @@ __all__ = ["graph_4_1", "graph_4_2", "graph_4_3", "graph_4_4", "graph_4_5", "gra
            "graph_4_7", "save_thesis_graphs", "THESIS_GRAPHS", "KS_SATURATION_C"]
 
 FIGSIZE = (6.5, 4.5)
-DPI = 110
 K, C = 1.0, 5.0                       # the thesis's k = 1, c = 5
 M_CURVES = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
 A_LABEL = "input amplitude A (units of c/k; k = 1, c = 5)"
@@ -38,17 +36,11 @@ PHASE_LABEL = "phase of N (deg)"
 KS_SATURATION_C = K * (5.0 - float(cubic_width(5.0, **KS_MAGNET_STEEL)))
 
 
-def _figure(nrows=1, ncols=1, **kw):
-    fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
-    return fig, axes.ravel()
-
-
 def _df_vs_m(model, title):
     m = np.linspace(0.0, 1.0, 401)
     N = model.describing_function(1.0, k=K, c=np.inf, m=m)
-    fig, (top, bottom) = _figure(2, 1, sharex=True)
+    fig, axes = new_figure(FIGSIZE, 2, 1, sharex=True)
+    top, bottom = axes.ravel()
     top.plot(m, np.abs(N), label="|N|")
     top.plot(m, N.real, "--", label="Re N")
     top.plot(m, N.imag, ":", label="Im N")
@@ -119,7 +111,8 @@ def graph_4_2(ms=M_CURVES):
     ``|N|`` (top) and phase (bottom) for several ``m``; dots mark
     ``A_sat = (c/k)/(1-m)``, below which ``N`` is the Graph 4.1 value. Two axes.
     """
-    fig, axes = _figure(2, 1, sharex=True)
+    fig, axes = new_figure(FIGSIZE, 2, 1, sharex=True)
+    axes = axes.ravel()
     _df_vs_a(axes, ProportionalWidth, ms)
     fig.suptitle("Graph 4.2: DF with saturation (Fig 2.3 loop, b = mA, k = 1, c = 5)")
     return fig
@@ -131,7 +124,8 @@ def graph_4_3(ms=M_CURVES):
     Each locus stays at one point up to ``A_sat`` and then runs off to ``-inf`` in the
     third quadrant; arrows show the direction of increasing ``A``. One axis.
     """
-    fig, (ax,) = _figure()
+    fig, axes = new_figure(FIGSIZE, 1, 1)
+    ax = axes[0, 0]
     _loci(ax, ProportionalWidth, ms)
     ax.set_title("Graph 4.3: critical loci -1/N (Fig 2.3 loop, b = mA, k = 1, c = 5)")
     return fig
@@ -153,8 +147,7 @@ def graph_4_5(ms=M_CURVES):
     increasing ``A``. Three axes. ``m <= 0.5`` only (the thesis calls ``m > 0.5``
     impractical).
     """
-    fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = new_figure(FIGSIZE)
     grid = fig.add_gridspec(2, 2)
     mag = fig.add_subplot(grid[0, 0])
     phase = fig.add_subplot(grid[1, 0], sharex=mag)
@@ -175,7 +168,8 @@ def graph_4_6():
     not in the available copy. One axis.
     """
     hm = np.linspace(0.0, 10.0, 2001)
-    fig, (ax,) = _figure()
+    fig, axes = new_figure(FIGSIZE, 1, 1)
+    ax = axes[0, 0]
     ax.plot(hm, ks_magnet_steel_hc(hm), label="eq 4.11 as printed")
     ax.plot(hm, cubic_width(hm, **KS_MAGNET_STEEL), "--", label="continuous version (cubic_hc)")
     ax.axvline(5.0, color="0.7", lw=0.6)
@@ -197,7 +191,8 @@ def graph_4_7(c=KS_SATURATION_C):
     """
     A = np.linspace(0.02, 20.0, 2000)
     N = CubicHc.describing_function(A, k=K, c=c, **KS_MAGNET_STEEL)
-    fig, (top, bottom) = _figure(2, 1, sharex=True)
+    fig, axes = new_figure(FIGSIZE, 2, 1, sharex=True)
+    top, bottom = axes.ravel()
     top.plot(A, np.abs(N), label="|N|")
     top.plot(A, N.real, "--", label="Re N")
     top.plot(A, N.imag, ":", label="Im N")

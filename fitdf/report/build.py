@@ -38,9 +38,16 @@ from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from fitdf import __version__
 from fitdf.errors import OptionError
+from fitdf.inference.api import fit
+from fitdf.inference.mcmc import fit_mcmc
+from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
+from fitdf.models import model_names
+from fitdf.report import sections as rs
+from fitdf.report import render
 
 __all__ = ["generate_report", "ReportSettings", "BLOCKS", "CROSS_DIRECTIONS", "collect", "write_outputs"]
 
@@ -132,8 +139,6 @@ class ReportSettings:
         return cls(methods=methods, mcmc_top=cls.mcmc_top if "mcmc" in methods else 0)
 
     def model_list(self) -> list[str]:
-        from fitdf.models import model_names
-
         return list(self.models) if self.models else model_names()
 
     def block_list(self) -> list[Block]:
@@ -146,40 +151,28 @@ class ReportSettings:
 
 # ------------------------------------------------------------------ jobs (top level: picklable)
 def _job_lsq(data, model, seed, n_starts):
-    from fitdf.inference.api import fit
-
     return fit(data, model, method="lsq", seed=seed, n_starts=n_starts)
 
 
 def _job_mcmc(lsq, seed, n_steps, n_walkers):
-    from fitdf.inference.mcmc import fit_mcmc
-
     return fit_mcmc(lsq.problem, lsq, seed=seed, n_steps=n_steps, n_walkers=n_walkers)
 
 
 def _job_cv(lsq, seed, n_starts):
-    from fitdf.inference.ranking import cross_validate
-
     return cross_validate(lsq, seed=seed, n_starts=n_starts)
 
 
 def _job_cross(core, model, train_ohm, test_ohm, seed, n_starts):
-    from fitdf.inference.ranking import cross_impedance
-
     return cross_impedance(core, models=[model], train_ohm=train_ohm, test_ohm=test_ohm, seed=seed,
                            n_starts=n_starts).to_dict(orient="records")
 
 
 def _job_limit_cycles(seed, models, n_starts, figdir):
-    from fitdf.report import sections as report_sections
-
-    return report_sections.limit_cycle_section(seed, models, n_starts, figdir)
+    return rs.limit_cycle_section(seed, models, n_starts, figdir)
 
 
 def _job_figures(kind, payload, figdir):
-    from fitdf.report import sections as report_sections
-
-    return report_sections.make_figures(kind, payload, Path(figdir))
+    return rs.make_figures(kind, payload, Path(figdir))
 
 
 def _timed(fn, *args):
@@ -211,8 +204,6 @@ class _Runner:
         return False
 
     def run(self, jobs: dict, desc: str) -> dict:
-        from tqdm.auto import tqdm
-
         out = {}
         with tqdm(total=len(jobs), desc=desc, file=sys.stderr, disable=not self.progress, leave=True) as bar:
             if self.pool is None:
@@ -235,10 +226,8 @@ _KIND_ORDER = {"limit": 0, "mcmc": 1, "cv": 2, "cross": 3}
 
 def _long_first(item):
     """Sort key of the second phase's jobs: long kinds and large blocks first (a short pool tail)."""
-    from fitdf.report.sections import expected_cost
-
     key, (_, args) = item
-    size = expected_cost(args[0].problem.data.label, "") if key[0] in ("mcmc", "cv") else 0.0
+    size = rs.expected_cost(args[0].problem.data.label, "") if key[0] in ("mcmc", "cv") else 0.0
     return (_KIND_ORDER[key[0]], -size)
 
 
@@ -248,20 +237,16 @@ def _top(ranked: list[str], n):
 
 def _least_squares(settings, seed, runner, models, blocks) -> dict:
     """Every model on every block; costly models and large blocks first (a short pool tail)."""
-    from fitdf.report.sections import expected_cost
-
     order = sorted(((b, m) for b in blocks for m in models),
-                   key=lambda bm: (-expected_cost(bm[0].data, bm[1]), blocks.index(bm[0]), models.index(bm[1])))
+                   key=lambda bm: (-rs.expected_cost(bm[0].data, bm[1]), blocks.index(bm[0]), models.index(bm[1])))
     jobs = {(b.key, m): (_job_lsq, (b.data, m, seed, settings.n_starts)) for b, m in order}
     return runner.run(jobs, "least squares")
 
 
 def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -> dict:
     """MCMC and cross-validation of each block's best models, cross-impedance, limit cycles."""
-    from fitdf.report import sections as rs
-
     jobs = {}
-    if settings.limit_cycles and rs.limit_cycles_available():
+    if settings.limit_cycles:
         winners = rs.aicc_winners(lsq, models, LIMIT_CYCLE_BLOCKS)
         jobs[("limit",)] = (_job_limit_cycles, (seed, winners or None, settings.n_starts, str(figdir)))
     for b in blocks:
@@ -279,8 +264,6 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
 
 
 def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
-    from fitdf.report import sections as rs
-
     mcmc, cross = second["mcmc"], second["cross"]
     jobs = {}
     for b in blocks:
@@ -300,9 +283,6 @@ def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
 
 def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) -> dict:
     """Run every fit and figure; return the JSON-ready results (see report_render)."""
-    from fitdf.report import sections as rs
-    from fitdf.inference.ranking import ranking_table
-
     models, blocks = settings.model_list(), settings.block_list()
     timing = {}
     t0 = time.perf_counter()
@@ -322,7 +302,7 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) 
         "blocks": {b.key: rs.block_record(b, [lsq[(b.key, m)] for m in ranked[b.key]], pick("mcmc", b.key),
                                           pick("cv", b.key), figures[("block", b.key)]) for b in blocks},
         "cross_impedance": rs.cross_record(settings.cross, second["cross"], figures),
-        "limit_cycles": second["limit"] if second["limit"] is not None else rs.limit_cycles_unavailable(settings),
+        "limit_cycles": second["limit"] if second["limit"] is not None else rs.limit_cycles_switched_off(),
         "audit": rs.audit_record(),
         "thesis_graphs": figures[("thesis",)],
         "models": rs.model_descriptions(models),
@@ -335,13 +315,11 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) 
 
 def write_outputs(results: dict, out_dir: Path) -> None:
     """results.json, README.md and index.html into ``out_dir`` (figures already there)."""
-    from fitdf.report.render import render_html, render_markdown
-
     out_dir = Path(out_dir)
     text = json.dumps(results, indent=1, allow_nan=False, ensure_ascii=False)
     (out_dir / "results.json").write_text(text + "\n", encoding="utf-8")
-    (out_dir / "README.md").write_text(render_markdown(results), encoding="utf-8")
-    (out_dir / "index.html").write_text(render_html(results, out_dir), encoding="utf-8")
+    (out_dir / "README.md").write_text(render.render_markdown(results), encoding="utf-8")
+    (out_dir / "index.html").write_text(render.render_html(results, out_dir), encoding="utf-8")
 
 
 def _swap_in(tmp: Path, out_dir: Path) -> None:

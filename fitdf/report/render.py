@@ -239,7 +239,7 @@ def _limit_blocks(res):
     if lc.get("error"):
         return out + [P(f"The limit-cycle comparison failed in this run: `{lc['error']}`.")]
     out.append(P("Limit cycles of the thesis's analog-computer loop predicted by harmonic balance from the fits "
-                 "(`fitdf.loop.harmonic.thesis_limit_cycle_comparison`; per block the lowest-AICc model among "
+                 "(`fitdf.thesis.thesis_limit_cycle_comparison`; per block the lowest-AICc model among "
                  + ", ".join(f"`{m}`" for m in (lc.get("models_offered") or ["all models"])) +
                  ") against the measured Tables 5.1 and 5.2."))
     if lc.get("figure"):

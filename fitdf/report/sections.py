@@ -7,25 +7,32 @@ sentences from the numbers alone.
 """
 from __future__ import annotations
 
-import inspect
 import io
 import math
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from PIL import Image
 
 from fitdf._json import clean
+from fitdf.data import audit, datasets
+from fitdf.inference.api import resolve_data
+from fitdf.inference.ranking import best_by_aicc, ranking_table
+from fitdf.models import get_model
+from fitdf.plots import (plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals,
+                         save_thesis_graphs)
+from fitdf.plots.limit_cycles import plot_thesis_comparison
+from fitdf.plots.thesis import THESIS_GRAPHS
+from fitdf.thesis import thesis_limit_cycle_comparison
 
 __all__ = ["block_record", "block_payload", "make_figures", "cross_record", "audit_record", "findings",
-           "limit_cycle_section", "limit_cycles_available", "limit_cycles_unavailable", "model_descriptions",
+           "limit_cycle_section", "limit_cycles_switched_off", "model_descriptions",
            "aicc_winners", "expected_cost", "clean"]
 
 
 _ROWS = {"B.1": 37, "B.2": 30, "B.3": 36, "B.4": 63, "B.5": 89, "permalloy": 73, "deltamax": 119}
 _MODEL_COST = {"cubic_hc": 4.0, "rayleigh": 2.5, "constant_width": 2.0, "frequency_hc": 1.5}
-#: Names under which fitdf.plots.limitcycle may provide the Tables 5.1/5.2 figure.
-LIMIT_CYCLE_PLOTS = ("plot_thesis_limit_cycle_comparison", "plot_limit_cycle_comparison", "plot_thesis_comparison")
 
 
 def expected_cost(data: str, model: str) -> float:
@@ -39,13 +46,11 @@ def aicc_winners(lsq: dict, models, keys) -> list[str]:
     for k in keys:
         fits = [lsq[(k, m)] for m in models if (k, m) in lsq]
         if fits:
-            out.add(min(fits, key=lambda r: r.metrics["aicc"]).model)
+            out.add(best_by_aicc(fits).model)
     return sorted(out)
 
 
 def model_descriptions(models) -> list[dict]:
-    from fitdf.models import get_model
-
     return clean([get_model(m).describe() for m in models])
 
 
@@ -55,15 +60,10 @@ def _slug(key: str) -> str:
 
 # ------------------------------------------------------------------ data and audit
 def _audited(name: str) -> pd.DataFrame:
-    from fitdf.data import audit
-    from fitdf.data import datasets
-
     return audit.audit(datasets.load(name))
 
 
 def _data_summary(block, lsq0) -> dict:
-    from fitdf.data import audit
-
     frame = _audited(block.data)
     used = lsq0.residuals.groupby(["source_impedance_ohm", "frequency_hz"]).size()
     per_f = []
@@ -87,8 +87,6 @@ def _excluded_rows(name: str) -> pd.DataFrame:
 
 def audit_record() -> dict:
     """Appendix B as a whole: per-table counts, DF factor per block, the audit's sentences."""
-    from fitdf.data import audit
-
     frame = _audited("appendix_b")
     tables = []
     for t, g in frame.groupby("table"):
@@ -129,8 +127,6 @@ def fit_record(r) -> dict:
 
 
 def _ranking(results, cv=None, rank_by="rms_complex") -> list[dict]:
-    from fitdf.inference.ranking import ranking_table
-
     cv_idx = {i: cv[r.model] for i, r in enumerate(results) if cv and r.model in cv}
     table = ranking_table(results, rank_by=rank_by, cv=cv_idx or None)
     return table.to_dict(orient="records")
@@ -199,8 +195,6 @@ def block_payload(block, lsq_ranked, mcmc_ranked, settings) -> dict:
 
 def _save(fig, figdir: Path, name: str) -> str:
     """Write ``fig`` as a 256-colour palette PNG (a third of the size; line plots lose nothing visible)."""
-    from PIL import Image
-
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
     buf.seek(0)
@@ -211,17 +205,13 @@ def _save(fig, figdir: Path, name: str) -> str:
 
 def make_figures(kind: str, payload, figdir: Path):
     """Draw and save one group of figures; returns relative paths."""
-    from fitdf.plots import (plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals,
-                        save_thesis_graphs)
-    from fitdf.plots.thesis import THESIS_GRAPHS
-
     if kind == "thesis":
         paths = save_thesis_graphs(figdir / "thesis")
         return [{"graph": n, "path": f"figures/thesis/{p.name}", "title": _thesis_title(THESIS_GRAPHS[n])}
                 for n, p in zip(THESIS_GRAPHS, paths)]
     if kind == "cross":
         core, train, test, train_key, test_key = payload["direction"]
-        fig = plot_cross_impedance(payload["train"], test_key, calibration_gains=payload["gains"])
+        fig = plot_cross_impedance(payload["train"], resolve_data(test_key), calibration_gains=payload["gains"])
         return _save(fig, figdir, f"cross_{core}_{train:g}_to_{test:g}.png")
     b, lsq, mcmc = payload["block"], payload["lsq"], payload["mcmc"]
     slug = _slug(b.key)
@@ -240,50 +230,27 @@ def _thesis_title(fn) -> str:
 
 
 # ------------------------------------------------------------------ limit cycles
-def limit_cycles_available() -> bool:
-    try:
-        from fitdf.loop.harmonic import thesis_limit_cycle_comparison  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-def limit_cycles_unavailable(settings=None) -> dict:
-    if settings is not None and not settings.limit_cycles:
-        return {"available": False, "reason": "The limit-cycle comparison was switched off in these settings."}
-    return {"available": False, "reason": "The limit-cycle module (fitdf.loop.harmonic) is not available in this "
-                                          "installation, so Tables 5.1 and 5.2 are not compared."}
+def limit_cycles_switched_off() -> dict:
+    return {"available": False, "reason": "The limit-cycle comparison was switched off in these settings."}
 
 
 def limit_cycle_section(seed, models, n_starts, figdir) -> dict:
-    """Tables 5.1/5.2 against the limit cycles predicted from the fits (fitdf.loop.harmonic).
+    """Tables 5.1/5.2 against the limit cycles predicted from the fits (:mod:`fitdf.thesis`).
 
     ``models`` are the lowest-AICc models of the blocks B.1, B.3, B.2, B.5; the
     comparison picks the lowest-AICc of them per block, which is the same choice as
     among all models, at a fraction of the cost.
     """
-    from fitdf.loop.harmonic import thesis_limit_cycle_comparison
-
-    params = inspect.signature(thesis_limit_cycle_comparison).parameters
-    kw = {k: v for k, v in (("models", models), ("n_starts", n_starts)) if k in params}
     try:
-        df = thesis_limit_cycle_comparison(seed=seed, **kw)
+        df = thesis_limit_cycle_comparison(seed=seed, models=models, n_starts=n_starts)
     except Exception as exc:  # the section reports the failure; the rest of the report stands
         return {"available": True, "error": f"{type(exc).__name__}: {exc}", "models_offered": models}
     rec = {"available": True, "models_offered": models, "rows": clean(df.to_dict(orient="records")),
            "columns": list(df.columns), "attrs": clean(dict(df.attrs)), "figure": None}
     try:
-        from fitdf.plots import limitcycle as lcplots
-    except ImportError:
-        return rec
-    for name in LIMIT_CYCLE_PLOTS:
-        fn = getattr(lcplots, name, None)
-        if callable(fn):
-            try:
-                rec["figure"] = _save(fn(df), Path(figdir), "limit_cycles.png")
-            except Exception as exc:
-                rec["figure_error"] = f"{type(exc).__name__}: {exc}"
-            break
+        rec["figure"] = _save(plot_thesis_comparison(df), Path(figdir), "limit_cycles.png")
+    except Exception as exc:  # a figure that fails leaves its numbers in the report
+        rec["figure_error"] = f"{type(exc).__name__}: {exc}"
     return rec
 
 
