@@ -11,6 +11,7 @@ Prints, side by side in one run:
    steps, ESS from the integrated autocorrelation time of each chain. Aim: >= 10x.
 No thresholds are asserted: the numbers are printed.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -23,14 +24,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import emcee  # noqa: E402
-import lmfit  # noqa: E402
+import emcee
+import lmfit
 
-from fitdf.inference.api import resolve_data  # noqa: E402
-from fitdf.inference.problem import FitProblem  # noqa: E402
-from fitdf.inference.lsq import fit_lsq  # noqa: E402
-from fitdf.inference.mcmc import fit_mcmc  # noqa: E402
-from fitdf.models import model_names  # noqa: E402
+from fitdf.inference.api import resolve_data
+from fitdf.inference.lsq import fit_lsq
+from fitdf.inference.mcmc import fit_mcmc
+from fitdf.inference.problem import FitProblem
+from fitdf.models import model_names
 
 
 class CountingProblem(FitProblem):
@@ -46,7 +47,9 @@ class CountingProblem(FitProblem):
 
 def bench_lsq(cores, models):
     print("== least squares (winding chain, 0 + 600 ohm jointly, multi-start 6 of 256 screened) ==")
-    print(f"{'core':<12s} {'model':<26s} {'seconds':>8s} {'evals':>8s} {'evals/s':>9s} {'rms_complex':>12s}")
+    print(
+        f"{'core':<12s} {'model':<26s} {'seconds':>8s} {'evals':>8s} {'evals/s':>9s} {'rms_complex':>12s}"
+    )
     total = 0.0
     for core in cores:
         data = resolve_data(core)
@@ -58,7 +61,9 @@ def bench_lsq(cores, models):
             dt = time.perf_counter() - t0
             total += dt
             ev = CountingProblem.evaluations
-            print(f"{core:<12s} {model:<26s} {dt:8.2f} {ev:8d} {ev / dt:9.0f} {r.metrics['rms_complex']:12.4f}")
+            print(
+                f"{core:<12s} {model:<26s} {dt:8.2f} {ev:8d} {ev / dt:9.0f} {r.metrics['rms_complex']:12.4f}"
+            )
     print(f"total least-squares time: {total:.1f} s")
 
 
@@ -78,7 +83,6 @@ def bench_mcmc(core, model, steps, walkers):
     post = fit_mcmc(problem, lsq, seed=1, n_walkers=walkers, n_steps=steps)
     t_ours = time.perf_counter() - t0
     ess_ours = min(post.diagnostics["ess_bulk"][n] for n in problem.names)
-    n_draws = post.diagnostics["n_draws"]
     # ESS of the full post-burn chain from emcee's integrated time, comparable with lmfit's below
     tau_ours = np.array([post.diagnostics["tau"][n] for n in problem.names])
     ess_tau_ours = (steps - post.diagnostics["burn"]) * walkers / tau_ours.max()
@@ -96,7 +100,9 @@ def bench_mcmc(core, model, steps, walkers):
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = mini.emcee(steps=steps, nwalkers=walkers, burn=0, is_weighted=True, seed=1, progress=False)
+        res = mini.emcee(
+            steps=steps, nwalkers=walkers, burn=0, is_weighted=True, seed=1, progress=False
+        )
     t_lmfit = time.perf_counter() - t0
     chain = res.flatchain.to_numpy().reshape(steps, walkers, -1)
     burn = post.diagnostics["burn"]
@@ -104,12 +110,18 @@ def bench_mcmc(core, model, steps, walkers):
     ess_tau_lmfit = float(np.min(ess_l))
 
     print(f"{'sampler':<28s} {'seconds':>8s} {'max tau':>8s} {'ESS':>9s} {'ESS/s':>9s}")
-    print(f"{'fitdf (vectorised emcee)':<28s} {t_ours:8.2f} {tau_ours.max():8.1f} {ess_tau_ours:9.0f} "
-          f"{ess_tau_ours / t_ours:9.1f}   (ArviZ multi-chain bulk ESS: {ess_ours:.0f})")
-    print(f"{'lmfit Minimizer.emcee':<28s} {t_lmfit:8.2f} {np.max(tau_l):8.1f} {ess_tau_lmfit:9.0f} "
-          f"{ess_tau_lmfit / t_lmfit:9.1f}")
+    print(
+        f"{'fitdf (vectorised emcee)':<28s} {t_ours:8.2f} {tau_ours.max():8.1f} {ess_tau_ours:9.0f} "
+        f"{ess_tau_ours / t_ours:9.1f}   (ArviZ multi-chain bulk ESS: {ess_ours:.0f})"
+    )
+    print(
+        f"{'lmfit Minimizer.emcee':<28s} {t_lmfit:8.2f} {np.max(tau_l):8.1f} {ess_tau_lmfit:9.0f} "
+        f"{ess_tau_lmfit / t_lmfit:9.1f}"
+    )
     ratio = (ess_tau_ours / t_ours) / (ess_tau_lmfit / t_lmfit)
-    print(f"ESS/s ratio fitdf / lmfit: {ratio:.1f}x (aim >= 10x: {'met' if ratio >= 10 else 'NOT met'})")
+    print(
+        f"ESS/s ratio fitdf / lmfit: {ratio:.1f}x (aim >= 10x: {'met' if ratio >= 10 else 'NOT met'})"
+    )
     print("note: fitdf also samples two noise scales; lmfit's is_weighted=True keeps them fixed.")
 
 

@@ -7,8 +7,10 @@ prediction in a closed loop (section V.6).
 
 The public API is imported lazily so that ``fitdf --version`` stays fast.
 """
+
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version as _version
+from importlib.metadata import PackageNotFoundError
+from importlib.metadata import version as _version
 
 try:
     __version__ = _version("fitdf")

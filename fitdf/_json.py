@@ -1,4 +1,5 @@
 """One conversion of results to strict JSON, shared by results, the CLI and the report."""
+
 from __future__ import annotations
 
 import math

@@ -18,9 +18,10 @@ error below 1e-9 of the loop's slope. Amplitudes, frequencies and parameter batc
 are evaluated together as one array (no Python loop per amplitude); ``chunk`` bounds
 the memory used.
 """
+
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -84,8 +85,10 @@ def numerical_describing_function(
         ``N(A)`` with the broadcast shape of the inputs; 0 where ``A == 0``.
     """
     arrays = np.broadcast_arrays(
-        np.asarray(amplitude, dtype=float), np.asarray(frequency, dtype=float),
-        *(np.asarray(v, dtype=float) for v in theta.values()))
+        np.asarray(amplitude, dtype=float),
+        np.asarray(frequency, dtype=float),
+        *(np.asarray(v, dtype=float) for v in theta.values()),
+    )
     shape = arrays[0].shape
     flat = [a.reshape(-1) for a in arrays]
     A, f, params = flat[0], flat[1], dict(zip(theta.keys(), flat[2:]))
@@ -94,8 +97,9 @@ def numerical_describing_function(
     step = max(1, chunk // n_points)
     for start in range(0, A.size, step):  # chunks of many amplitudes, not one per amplitude
         sl = slice(start, start + step)
-        _, _, y = steady_state_output(branch, A[sl], f[sl], n_points=n_points,
-                                      **{k: v[sl] for k, v in params.items()})
+        _, _, y = steady_state_output(
+            branch, A[sl], f[sl], n_points=n_points, **{k: v[sl] for k, v in params.items()}
+        )
         # two real products: a complex one would cast y to complex and run far slower
         coeff = (2.0 / n_points) * ((y @ sin_t) + 1j * (y @ cos_t))  # a1 + j b1
         with np.errstate(divide="ignore", invalid="ignore"):

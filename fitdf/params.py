@@ -6,15 +6,24 @@ fit should start. Models and chains only *declare* parameters; the fitters turn 
 into their own coordinates (:meth:`ParamSpec.to_internal`). :class:`Parametrized` is
 what a law and a chain share: their declared parameters, listed and described.
 """
+
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import ClassVar, Sequence
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["ParamSpec", "Parametrized", "split_theta", "PER_TABLE", "table_parameter", "parameter_base",
-           "calibration_gain"]
+__all__ = [
+    "ParamSpec",
+    "Parametrized",
+    "split_theta",
+    "PER_TABLE",
+    "table_parameter",
+    "parameter_base",
+    "calibration_gain",
+]
 
 #: Chain parameters a joint fit gives one copy per table, named ``gain[B.1]``: the
 #: tables' calibration factors differ (Tables B.1-B.5 footnotes).
@@ -58,9 +67,13 @@ class ParamSpec:
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ValueError(f"parameter {self.name!r}: bounds must be finite with lower < upper")
         if not lo <= self.default <= hi:
-            raise ValueError(f"parameter {self.name!r}: default {self.default} outside bounds {self.bounds}")
+            raise ValueError(
+                f"parameter {self.name!r}: default {self.default} outside bounds {self.bounds}"
+            )
         if self.log and lo <= 0:
-            raise ValueError(f"parameter {self.name!r}: log-scaled parameters need a positive lower bound")
+            raise ValueError(
+                f"parameter {self.name!r}: log-scaled parameters need a positive lower bound"
+            )
 
     def to_internal(self, value):
         """Map a value to the optimiser's coordinate (log10 for ``log`` parameters)."""
@@ -84,7 +97,9 @@ def split_theta(specs: Sequence[ParamSpec], theta) -> dict[str, np.ndarray]:
     """
     theta = np.asarray(theta, dtype=float)
     if theta.shape[-1] != len(specs):
-        raise ValueError(f"expected {len(specs)} parameters ({[s.name for s in specs]}), got {theta.shape[-1]}")
+        raise ValueError(
+            f"expected {len(specs)} parameters ({[s.name for s in specs]}), got {theta.shape[-1]}"
+        )
     return {s.name: theta[..., i, None] for i, s in enumerate(specs)}
 
 
@@ -127,10 +142,23 @@ class Parametrized:
     @classmethod
     def describe(cls) -> dict:
         """Plain-dict description for listings and JSON."""
-        return {"name": cls.name, "title": cls.title, **cls._extra_description(),
-                "parameters": [{"name": p.name, "unit": p.unit, "default": p.default,
-                                "bounds": list(p.bounds), "description": p.description,
-                                "equation": p.equation, "log": p.log} for p in cls.params]}
+        return {
+            "name": cls.name,
+            "title": cls.title,
+            **cls._extra_description(),
+            "parameters": [
+                {
+                    "name": p.name,
+                    "unit": p.unit,
+                    "default": p.default,
+                    "bounds": list(p.bounds),
+                    "description": p.description,
+                    "equation": p.equation,
+                    "log": p.log,
+                }
+                for p in cls.params
+            ],
+        }
 
     @classmethod
     def _extra_description(cls) -> dict:

@@ -8,6 +8,7 @@ matching Appendix B tables, after estimating the computer's unprinted time and g
 scalings (:func:`estimate_thesis_scales`), and optionally checks the prediction by
 simulating the loop in time (:mod:`fitdf.loop.simulate`).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,13 +25,22 @@ from fitdf.loop.plant import as_loop_plant
 from fitdf.loop.simulate import CoreElement, simulate_loop
 from fitdf.models import model_names
 
-__all__ = ["thesis_limit_cycle_comparison", "estimate_thesis_scales", "THESIS_PLANT", "THESIS_BLOCKS"]
+__all__ = [
+    "thesis_limit_cycle_comparison",
+    "estimate_thesis_scales",
+    "THESIS_PLANT",
+    "THESIS_BLOCKS",
+]
 
 #: The plant of the analog-computer study (thesis V.6): amplidyne + generator.
 THESIS_PLANT = "K/((1+s)(1+0.25s)(1+1.1s))"
 #: Appendix B table fitted for each (core, source impedance) block of Tables 5.1/5.2.
-THESIS_BLOCKS = {("permalloy", 0.0): "B.1", ("permalloy", 600.0): "B.3",
-                 ("deltamax", 0.0): "B.2", ("deltamax", 600.0): "B.5"}
+THESIS_BLOCKS = {
+    ("permalloy", 0.0): "B.1",
+    ("permalloy", 600.0): "B.3",
+    ("deltamax", 0.0): "B.2",
+    ("deltamax", 600.0): "B.5",
+}
 
 
 def _fit_best(data, models, seed, n_starts):
@@ -42,10 +52,14 @@ def _fit_best(data, models, seed, n_starts):
 def _balance_terms(rows, fits):
     """``K N(A, omega)`` at the measured cycles (independent of the scalings) and ``omega``."""
     KN, omega = [], []
-    keep = np.isfinite(rows[["system_gain", "amplitude_v", "omega_rad_s"]].to_numpy(float)).all(axis=1)
+    keep = np.isfinite(rows[["system_gain", "amplitude_v", "omega_rad_s"]].to_numpy(float)).all(
+        axis=1
+    )
     if not keep.any():
         raise OptionError("no measured cycle with a finite gain, amplitude and frequency")
-    for key, block in rows[keep].groupby(["core", "source_impedance_ohm"]):   # per block, vectorised in rows
+    for key, block in rows[keep].groupby(
+        ["core", "source_impedance_ohm"]
+    ):  # per block, vectorised in rows
         w = block["omega_rad_s"].to_numpy(float)
         N = fits[key].predict(block["amplitude_v"].to_numpy(float), w / (2 * np.pi), key[1])
         KN.append(block["system_gain"].to_numpy(float) * N)
@@ -74,18 +88,34 @@ def estimate_thesis_scales(rows, fits) -> dict:
         return float(np.mean(residuals(la)[0] ** 2))
 
     grid = np.linspace(np.log(0.1), np.log(100.0), 121)
-    k = int(np.argmin([cost(la) for la in grid]))    # the phase cost may be multimodal
-    res = minimize_scalar(cost, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), method="bounded",
-                          options={"xatol": 1e-9})
+    k = int(np.argmin([cost(la) for la in grid]))  # the phase cost may be multimodal
+    res = minimize_scalar(
+        cost,
+        bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]),
+        method="bounded",
+        options={"xatol": 1e-9},
+    )
     ph, lm = residuals(res.x)
     log_beta = -float(np.mean(lm))
-    return {"alpha": float(np.exp(res.x)), "beta": float(np.exp(log_beta)),
-            "rms_phase_deg": float(np.degrees(np.sqrt(np.mean(ph ** 2)))),
-            "rms_magnitude_factor": float(np.exp(np.sqrt(np.mean((lm + log_beta) ** 2)))), "n_rows": int(ph.size)}
+    return {
+        "alpha": float(np.exp(res.x)),
+        "beta": float(np.exp(log_beta)),
+        "rms_phase_deg": float(np.degrees(np.sqrt(np.mean(ph**2)))),
+        "rms_magnitude_factor": float(np.exp(np.sqrt(np.mean((lm + log_beta) ** 2)))),
+        "n_rows": int(ph.size),
+    }
 
 
-def thesis_limit_cycle_comparison(seed=0, models=None, *, time_scale=None, gain_scale=None,
-                                  amplitude_range=(0.01, 20.0), n_starts=6, time_domain=False) -> pd.DataFrame:
+def thesis_limit_cycle_comparison(
+    seed=0,
+    models=None,
+    *,
+    time_scale=None,
+    gain_scale=None,
+    amplitude_range=(0.01, 20.0),
+    n_starts=6,
+    time_domain=False,
+) -> pd.DataFrame:
     """Predict the analog-computer limit cycles of Tables 5.1/5.2 from the Appendix B fits.
 
     Each (core, source impedance) block is predicted from the table measured on that
@@ -124,52 +154,104 @@ def thesis_limit_cycle_comparison(seed=0, models=None, *, time_scale=None, gain_
     table = pd.concat([datasets.load("table_5_1"), datasets.load("table_5_2")], ignore_index=True)
     table["source_impedance_ohm"] = table["source_impedance_ohm"].astype(float)
     fits = {key: _fit_best(name, models, seed, n_starts) for key, name in THESIS_BLOCKS.items()}
-    osc = table[np.isfinite(table["omega_rad_s"]) & np.isfinite(table["amplitude_v"]) & ~table["dies_out"]]
+    osc = table[
+        np.isfinite(table["omega_rad_s"]) & np.isfinite(table["amplitude_v"]) & ~table["dies_out"]
+    ]
     joint = estimate_thesis_scales(osc, fits)
-    per_block = {f"{c} {r:g} ohm": estimate_thesis_scales(b, fits)
-                 for (c, r), b in osc.groupby(["core", "source_impedance_ohm"])}
+    per_block = {
+        f"{c} {r:g} ohm": estimate_thesis_scales(b, fits)
+        for (c, r), b in osc.groupby(["core", "source_impedance_ohm"])
+    }
     alpha = float(time_scale) if time_scale is not None else joint["alpha"]
     beta = float(gain_scale) if gain_scale is not None else joint["beta"]
     out = []
     for (core, rs), block in table.groupby(["core", "source_impedance_ohm"], sort=False):
         f = fits[(core, rs)]
         gains = block["system_gain"].to_numpy(float)
-        resp = limit_cycles(THESIS_PLANT, f, beta * gains, source_impedance=rs, amplitude_range=amplitude_range,
-                            time_scale=alpha)
+        resp = limit_cycles(
+            THESIS_PLANT,
+            f,
+            beta * gains,
+            source_impedance=rs,
+            amplitude_range=amplitude_range,
+            time_scale=alpha,
+        )
         pred = resp.stable_cycles()
         d = f.problem.data
-        amp_box, f_box = (d.amplitude.min(), d.amplitude.max()), (d.frequency.min(), d.frequency.max())
+        amp_box, f_box = (
+            (d.amplitude.min(), d.amplitude.max()),
+            (d.frequency.min(), d.frequency.max()),
+        )
         for (_, row), (_, p) in zip(block.iterrows(), pred.iterrows()):
             fa, fw = p["amplitude"], p["omega_rad_s"]
-            out.append({"core": core, "source_impedance_ohm": rs, "table": THESIS_BLOCKS[(core, rs)],
-                        "model": f.model, "system_gain": row["system_gain"], "amplitude_v": row["amplitude_v"],
-                        "omega_rad_s": row["omega_rad_s"], "dies_out": bool(row["dies_out"]),
-                        "amplitude_pred": fa, "omega_pred": fw, "amplitude_ratio": fa / row["amplitude_v"],
-                        "omega_ratio": fw / row["omega_rad_s"], "n_stable": int(p["n_stable"]),
-                        "critical_gain_pred": resp.critical_gain / beta,
-                        "extrapolated": bool(np.isfinite(fa) and not (amp_box[0] <= fa <= amp_box[1]
-                                                                      and f_box[0] <= fw / (2 * np.pi) <= f_box[1]))})
+            out.append(
+                {
+                    "core": core,
+                    "source_impedance_ohm": rs,
+                    "table": THESIS_BLOCKS[(core, rs)],
+                    "model": f.model,
+                    "system_gain": row["system_gain"],
+                    "amplitude_v": row["amplitude_v"],
+                    "omega_rad_s": row["omega_rad_s"],
+                    "dies_out": bool(row["dies_out"]),
+                    "amplitude_pred": fa,
+                    "omega_pred": fw,
+                    "amplitude_ratio": fa / row["amplitude_v"],
+                    "omega_ratio": fw / row["omega_rad_s"],
+                    "n_stable": int(p["n_stable"]),
+                    "critical_gain_pred": resp.critical_gain / beta,
+                    "extrapolated": bool(
+                        np.isfinite(fa)
+                        and not (
+                            amp_box[0] <= fa <= amp_box[1]
+                            and f_box[0] <= fw / (2 * np.pi) <= f_box[1]
+                        )
+                    ),
+                }
+            )
     df = pd.DataFrame(out)
     if time_domain:
         df = _add_time_domain(df, fits, alpha, beta)
-    df.attrs.update({"alpha": alpha, "beta": beta, "plant": THESIS_PLANT, "agreement": _agreement(df),
-                     "critical_gains": _critical_summary(df),
-                     "scales": {"joint": joint, **per_block},
-                     "fits": {THESIS_BLOCKS[k]: {"model": f.model, "values": dict(f.values),
-                                                "rms_complex": f.metrics["rms_complex"]} for k, f in fits.items()}})
+    df.attrs.update(
+        {
+            "alpha": alpha,
+            "beta": beta,
+            "plant": THESIS_PLANT,
+            "agreement": _agreement(df),
+            "critical_gains": _critical_summary(df),
+            "scales": {"joint": joint, **per_block},
+            "fits": {
+                THESIS_BLOCKS[k]: {
+                    "model": f.model,
+                    "values": dict(f.values),
+                    "rms_complex": f.metrics["rms_complex"],
+                }
+                for k, f in fits.items()
+            },
+        }
+    )
     return df
 
 
 def _agreement(df) -> dict:
     """RMS of ln(predicted / measured) for amplitude and frequency, per block and overall."""
     out = {}
-    for key, g in [("all", df)] + [(f"{c} {r:g} ohm", g) for (c, r), g in df.groupby(["core", "source_impedance_ohm"])]:
+    for key, g in [("all", df)] + [
+        (f"{c} {r:g} ohm", g) for (c, r), g in df.groupby(["core", "source_impedance_ohm"])
+    ]:
         ok = ~g["dies_out"] & g["amplitude_ratio"].notna()
-        out[key] = {"rms_log_amplitude_ratio": float(np.sqrt(np.mean(np.log(g.loc[ok, "amplitude_ratio"]) ** 2)))
-                    if ok.any() else float("nan"),
-                    "rms_log_omega_ratio": float(np.sqrt(np.mean(np.log(g.loc[ok, "omega_ratio"]) ** 2)))
-                    if ok.any() else float("nan"),
-                    "rows_predicted": int(ok.sum()), "rows_oscillating": int((~g["dies_out"]).sum())}
+        out[key] = {
+            "rms_log_amplitude_ratio": float(
+                np.sqrt(np.mean(np.log(g.loc[ok, "amplitude_ratio"]) ** 2))
+            )
+            if ok.any()
+            else float("nan"),
+            "rms_log_omega_ratio": float(np.sqrt(np.mean(np.log(g.loc[ok, "omega_ratio"]) ** 2)))
+            if ok.any()
+            else float("nan"),
+            "rows_predicted": int(ok.sum()),
+            "rows_oscillating": int((~g["dies_out"]).sum()),
+        }
     return out
 
 
@@ -178,10 +260,20 @@ def _critical_summary(df) -> list:
     rows = []
     for (core, rs), g in df.groupby(["core", "source_impedance_ohm"], sort=False):
         dead, live = g[g["dies_out"]], g[~g["dies_out"]]
-        rows.append({"core": core, "source_impedance_ohm": rs, "table": g["table"].iloc[0],
-                     "measured_dies_out_at": float(dead["system_gain"].max()) if not dead.empty else None,
-                     "measured_lowest_oscillating": float(live["system_gain"].min()) if not live.empty else None,
-                     "predicted_critical_gain": clean(float(g["critical_gain_pred"].iloc[0]))})
+        rows.append(
+            {
+                "core": core,
+                "source_impedance_ohm": rs,
+                "table": g["table"].iloc[0],
+                "measured_dies_out_at": float(dead["system_gain"].max())
+                if not dead.empty
+                else None,
+                "measured_lowest_oscillating": float(live["system_gain"].min())
+                if not live.empty
+                else None,
+                "predicted_critical_gain": clean(float(g["critical_gain_pred"].iloc[0])),
+            }
+        )
     return rows
 
 
@@ -190,12 +282,20 @@ def _add_time_domain(df, fits, alpha, beta, steps_per_period=200, periods=40):
     parts = []
     for (core, rs), block in df.groupby(["core", "source_impedance_ohm"], sort=False):
         el = CoreElement.from_fit(fits[(core, rs)], rs)
-        w = np.concatenate([block["omega_pred"].to_numpy(float), block["omega_rad_s"].to_numpy(float)])
+        w = np.concatenate(
+            [block["omega_pred"].to_numpy(float), block["omega_rad_s"].to_numpy(float)]
+        )
         w = w[np.isfinite(w)]
         a0 = block["amplitude_v"].fillna(block["amplitude_pred"]).fillna(0.5).to_numpy(float)
-        sim = simulate_loop(THESIS_PLANT, el, beta * block["system_gain"].to_numpy(float), time_scale=alpha,
-                            dt=2 * np.pi / w.max() / steps_per_period, t_end=periods * 2 * np.pi / w.min(),
-                            initial_output=a0).measure()
+        sim = simulate_loop(
+            THESIS_PLANT,
+            el,
+            beta * block["system_gain"].to_numpy(float),
+            time_scale=alpha,
+            dt=2 * np.pi / w.max() / steps_per_period,
+            t_end=periods * 2 * np.pi / w.min(),
+            initial_output=a0,
+        ).measure()
         block = block.copy()
         block["amplitude_sim"] = np.where(sim["oscillating"], sim["amplitude_h1"], np.nan)
         block["omega_sim"] = np.where(sim["oscillating"], sim["omega"], np.nan)

@@ -1,4 +1,5 @@
 """Synthetic measured describing functions from known parameters (for recovery tests)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -12,9 +13,18 @@ AMPLITUDES = np.array([0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 
 FREQUENCIES = (3.0, 6.0, 10.0)
 
 
-def synthetic_frame(model, values: dict, chain="winding", source_impedances=(600.0,), frequencies=FREQUENCIES,
-                    amplitudes=AMPLITUDES, sigma_magnitude=0.005, sigma_phase_deg=0.5, seed=0,
-                    table="synthetic") -> pd.DataFrame:
+def synthetic_frame(
+    model,
+    values: dict,
+    chain="winding",
+    source_impedances=(600.0,),
+    frequencies=FREQUENCIES,
+    amplitudes=AMPLITUDES,
+    sigma_magnitude=0.005,
+    sigma_phase_deg=0.5,
+    seed=0,
+    table="synthetic",
+) -> pd.DataFrame:
     """Rows in the Appendix B schema, generated through ``chain`` with Gaussian noise.
 
     The noise is that of the tables' printed precision (about half a unit in the last
@@ -22,12 +32,22 @@ def synthetic_frame(model, values: dict, chain="winding", source_impedances=(600
     """
     model, chain = get_model(model), get_chain(chain)
     rng = np.random.default_rng(seed)
-    V, F, R = (a.ravel() for a in np.meshgrid(amplitudes, frequencies, source_impedances, indexing="ij"))
+    V, F, R = (
+        a.ravel() for a in np.meshgrid(amplitudes, frequencies, source_impedances, indexing="ij")
+    )
     m_theta = np.array([values[p.name] for p in model.params])
     c_theta = np.array([values[p.name] for p in chain.params])
     df = chain.predict(model, V, F, R, m_theta, c_theta)
     mag = np.abs(df) + sigma_magnitude * rng.standard_normal(df.size)
     phase = np.angle(df, deg=True) + sigma_phase_deg * rng.standard_normal(df.size)
-    return pd.DataFrame({"table": table, "core": "synthetic", "source_impedance_ohm": R, "frequency_hz": F,
-                         "input_v": V, "df_reported": np.round(np.clip(mag, 0, None), 3),
-                         "phase_lead_deg": np.round(phase, 1)})
+    return pd.DataFrame(
+        {
+            "table": table,
+            "core": "synthetic",
+            "source_impedance_ohm": R,
+            "frequency_hz": F,
+            "input_v": V,
+            "df_reported": np.round(np.clip(mag, 0, None), 3),
+            "phase_lead_deg": np.round(phase, 1),
+        }
+    )

@@ -1,12 +1,12 @@
 """Row-level audit of Appendix B (fitdf.data.audit): factors, shifts, printed errors, policies."""
+
 import numpy as np
 import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fitdf.data import audit
-from fitdf.data import datasets
+from fitdf.data import audit, datasets
 from fitdf.errors import DataError, OptionError
 
 
@@ -26,7 +26,9 @@ def factors(b):
 
 
 def row(frame, table, f, n):
-    sel = frame[(frame["table"] == table) & (frame["frequency_hz"] == f) & (frame["row_in_block"] == n)]
+    sel = frame[
+        (frame["table"] == table) & (frame["frequency_hz"] == f) & (frame["row_in_block"] == n)
+    ]
     assert len(sel) == 1
     return sel.iloc[0]
 
@@ -62,24 +64,34 @@ def test_b1_f3_power_of_ten_shift(factors, a):
     # once the shift is undone the shifted rows are consistent at printed precision, and harmless
     s = rows[shifted]
     assert (np.abs(s["df_reported"] - s["df_recomputed"]) <= s["df_tolerance"]).all()
-    assert (s["flag"] == "note").all() and not s["exclude_default"].any() and not s["h1_trusted"].any()
+    assert (
+        (s["flag"] == "note").all() and not s["exclude_default"].any() and not s["h1_trusted"].any()
+    )
     assert s["df_recomputed"].iloc[0] == pytest.approx(3.294 * 0.0704 / 0.25, rel=2e-3)
 
 
 # ------------------------------------------------------------------ the printed errors
 def test_b3_input_001_is_an_amplitude_error(a):
     r = row(a, "B.3", 10, 1)
-    assert r[TRUST].tolist() == [False, True, True, True] and r["exclude_default"] and r["flag"] == "suspect"
+    assert (
+        r[TRUST].tolist() == [False, True, True, True]
+        and r["exclude_default"]
+        and r["flag"] == "suspect"
+    )
     assert "input_v 0.01 V off its block's sequence: output and DF imply 0.108 V" in r["reasons"]
 
 
-@pytest.mark.parametrize("table,f,n", [("B.5", 20, 2), ("B.5", 50, 6), ("B.5", 50, 8), ("B.3", 10, 4),
-                                       ("B.2", 6, 7)])
+@pytest.mark.parametrize(
+    "table,f,n", [("B.5", 20, 2), ("B.5", 50, 6), ("B.5", 50, 8), ("B.3", 10, 4), ("B.2", 6, 7)]
+)
 def test_output_errors_only_make_h1_suspect(a, table, f, n):
     r = row(a, table, f, n)
     assert r[TRUST].tolist() == [True, True, True, False]
     assert r["flag"] == "suspect" and not r["exclude_default"]
-    assert "h1_output_v inconsistent" in r["reasons"] and "df_reported lies on its curve" in r["reasons"]
+    assert (
+        "h1_output_v inconsistent" in r["reasons"]
+        and "df_reported lies on its curve" in r["reasons"]
+    )
 
 
 def test_b5_output_errors_are_far_off(a):
@@ -95,14 +107,28 @@ def test_printed_duplicate(a):
     assert "printed 2 times (rows 7, 8 of its block)" in r7["reasons"]
     assert "duplicate of row 7 (repeat excluded)" in r8["reasons"]
     for r in (r7, r8):  # phase '--' in both
-        assert not r["phase_trusted"] and r["exclude_default"] and "phase_lead_deg missing" in r["reasons"]
+        assert (
+            not r["phase_trusted"]
+            and r["exclude_default"]
+            and "phase_lead_deg missing" in r["reasons"]
+        )
 
 
 def test_zero_output_rows(a):
     zero = a[a["df_reported"] == 0]
     assert [(t, int(f)) for t, f in zero[["table", "frequency_hz"]].values] == [
-        ("B.2", 3), ("B.2", 6), ("B.2", 10), ("B.5", 3), ("B.5", 6), ("B.5", 20)]
-    assert (zero["flag"] == "note").all() and zero["magnitude_trusted"].all() and not zero["phase_trusted"].any()
+        ("B.2", 3),
+        ("B.2", 6),
+        ("B.2", 10),
+        ("B.5", 3),
+        ("B.5", 6),
+        ("B.5", 20),
+    ]
+    assert (
+        (zero["flag"] == "note").all()
+        and zero["magnitude_trusted"].all()
+        and not zero["phase_trusted"].any()
+    )
 
 
 def test_no_saturation_knee_is_flagged(a):
@@ -121,9 +147,19 @@ def test_well_behaved_rows_are_not_flagged(a):
 
 def test_default_policy_excludes_exactly_the_untrusted_rows(a):
     excluded = a[a["exclude_default"]]
-    assert sorted((t, int(f), n) for t, f, n in excluded[["table", "frequency_hz", "row_in_block"]].values) == [
-        ("B.2", 3, 1), ("B.2", 3, 7), ("B.2", 3, 8), ("B.2", 6, 1), ("B.2", 10, 1), ("B.3", 10, 1),
-        ("B.5", 3, 1), ("B.5", 6, 1), ("B.5", 20, 1)]
+    assert sorted(
+        (t, int(f), n) for t, f, n in excluded[["table", "frequency_hz", "row_in_block"]].values
+    ) == [
+        ("B.2", 3, 1),
+        ("B.2", 3, 7),
+        ("B.2", 3, 8),
+        ("B.2", 6, 1),
+        ("B.2", 10, 1),
+        ("B.3", 10, 1),
+        ("B.5", 3, 1),
+        ("B.5", 6, 1),
+        ("B.5", 20, 1),
+    ]
     assert len(audit.select_rows(a, "default")) == 255
     assert len(audit.select_rows(a, "all")) == 262  # every row with DF and phase
     strict = audit.select_rows(a, "strict")
@@ -138,11 +174,16 @@ def test_select_rows_audits_an_unaudited_frame(b):
 
 def test_findings(b):
     text = audit.findings(b)
-    assert any(s.startswith("B.1: the footnote factor 2.998") and "the data follow 3.299" in s for s in text)
+    assert any(
+        s.startswith("B.1: the footnote factor 2.998") and "the data follow 3.299" in s
+        for s in text
+    )
     assert any(s.startswith("B.2:") and "the data follow 4.197" in s for s in text)
     assert any("B.1 f=3 c/s rows 2-9: h1_output_v printed 10^+1" in s for s in text)
     assert any("B.3 f=10 c/s row 1 (input 0.01 V) (thesis.txt line 1814)" in s for s in text)
-    assert text[-1].startswith("Row policies on these 264 rows: 'all' keeps 262, 'default' keeps 255")
+    assert text[-1].startswith(
+        "Row policies on these 264 rows: 'all' keeps 262, 'default' keeps 255"
+    )
 
 
 def test_audit_is_idempotent_and_keeps_the_index(a, b):
@@ -159,8 +200,17 @@ def test_audit_needs_the_core_columns():
 
 # ------------------------------------------------------------------ synthetic blocks
 def block(a_v, d, p, h=None, **extra):
-    frame = pd.DataFrame({"table": "S", "frequency_hz": 10.0, "input_v": a_v, "df_reported": d,
-                          "phase_lead_deg": p, "row_in_block": np.arange(1, len(a_v) + 1), **extra})
+    frame = pd.DataFrame(
+        {
+            "table": "S",
+            "frequency_hz": 10.0,
+            "input_v": a_v,
+            "df_reported": d,
+            "phase_lead_deg": p,
+            "row_in_block": np.arange(1, len(a_v) + 1),
+            **extra,
+        }
+    )
     if h is not None:
         frame["h1_output_v"] = h
     return frame
@@ -188,7 +238,10 @@ def test_synthetic_output_error_and_out_of_order_input():
     a_v[7] = 0.9  # between 1.5 and 2.5 the printed input went back
     frame = audit.audit(block(a_v, D, P, h=h))
     assert frame.iloc[3][TRUST].tolist() == [True, True, True, False]
-    assert not frame.iloc[7]["amplitude_trusted"] and "out of its block's increasing order" in frame.iloc[7]["reasons"]
+    assert (
+        not frame.iloc[7]["amplitude_trusted"]
+        and "out of its block's increasing order" in frame.iloc[7]["reasons"]
+    )
     assert frame["exclude_default"].tolist() == [i == 7 for i in range(10)]
 
 
@@ -205,7 +258,10 @@ def test_synthetic_spikes_without_output_column():
 def test_audit_of_a_loaded_user_file_without_outputs(tmp_path):
     p = tmp_path / "bench.csv"
     lines = ["input_v,df_reported,phase_lead_deg,frequency_hz"]
-    lines += [f"{a:g},{d + (0.2 if i == 5 else 0):.3f},{ph:.1f},10" for i, (a, d, ph) in enumerate(zip(A, D, P))]
+    lines += [
+        f"{a:g},{d + (0.2 if i == 5 else 0):.3f},{ph:.1f},10"
+        for i, (a, d, ph) in enumerate(zip(A, D, P))
+    ]
     p.write_text("\n".join(lines) + "\n")
     frame = audit.audit(datasets.load(p))
     assert frame["flag"].tolist() == ["suspect" if i == 5 else "ok" for i in range(10)]
@@ -215,7 +271,7 @@ def test_audit_of_a_loaded_user_file_without_outputs(tmp_path):
 
 
 def test_a_sharp_knee_is_not_a_spike():
-    knee = np.where(A <= 1.0, 0.95, 0.95 / A ** 0.8)  # flat, then a sharp fall at saturation
+    knee = np.where(A <= 1.0, 0.95, 0.95 / A**0.8)  # flat, then a sharp fall at saturation
     phase = np.where(A <= 1.0, 2.0, 2 + 30 * np.log(A))
     frame = audit.audit(block(A, np.round(knee, 3), np.round(phase, 1), h=np.round(knee * A, 4)))
     assert (frame["flag"] == "ok").all()
@@ -223,7 +279,9 @@ def test_a_sharp_knee_is_not_a_spike():
 
 @settings(max_examples=30, deadline=None, database=None)
 @given(st.floats(0.5, 5.0), st.floats(0.2, 0.9), st.floats(0.05, 2.0), st.integers(0, 3))
-def test_consistent_monotone_blocks_are_clean_and_the_factor_is_recovered(k, top, scale, shift_start):
+def test_consistent_monotone_blocks_are_clean_and_the_factor_is_recovered(
+    k, top, scale, shift_start
+):
     """A smooth block printed at 3 decimals with ``df = k * h1 / input`` raises no flag."""
     d = np.round(top * A / (A + scale), 3)
     h = np.round(d * A / k, 4)

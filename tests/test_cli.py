@@ -1,4 +1,5 @@
 """The command line as a user drives it: subprocesses of the installed console script."""
+
 import json
 import os
 import shutil
@@ -61,8 +62,16 @@ def test_audit_shows_flagged_rows_and_findings():
 def test_models_lists_every_model_with_equations():
     p = run("models")
     assert p.returncode == 0, p.stderr
-    for m in ("constant_width", "proportional_width", "proportional_width_fig42", "cubic_hc", "rayleigh",
-              "frequency_hc", "winding", "direct"):
+    for m in (
+        "constant_width",
+        "proportional_width",
+        "proportional_width_fig42",
+        "cubic_hc",
+        "rayleigh",
+        "frequency_hc",
+        "winding",
+        "direct",
+    ):
         assert m in p.stdout
     assert "eq" in p.stdout
     j = json.loads(run("models", "--json").stdout)
@@ -73,26 +82,31 @@ def test_fit_prints_ranking_and_json():
     p = run("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", "--quiet")
     assert p.returncode == 0, p.stderr
     assert "Ranking on B.3" in p.stdout and "Best model" in p.stdout
-    j = json.loads(run("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", "--json").stdout)
+    j = json.loads(
+        run("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", "--json").stdout
+    )
     assert [r["rank"] for r in j["ranking"]] == [1, 2]
     assert {f["model"] for f in j["fits"]} == {"constant_width", "rayleigh"}
     for f in j["fits"]:
         assert f["metrics"]["rms_complex"] > 0 and f["parameters"]
 
 
-@pytest.mark.parametrize("args, fragments", [
-    (("fit", "nosuchcore"), ["nosuchcore"]),
-    (("fit", "missing_dir/file.csv"), ["file.csv"]),
-    (("fit", "B.3", "--models", "bogus"), ["unknown model", "bogus"]),
-    (("fit", "B.3", "--chain", "bogus"), ["bogus"]),
-    (("fit", "B.3", "--method", "magic"), ["magic"]),
-    (("fit", "B.3", "--steps", "10"), ["--steps"]),
-    (("fit", "B.3", "--rank-by", "looic"), ["looic", "mcmc"]),
-    (("fit", "B.3", "--source-impedance", "50"), ["50"]),
-    (("fit", "B.3", "--seed", "abc"), ["abc"]),
-    (("audit", "nosuch.csv"), ["nosuch.csv"]),
-    (("bogus-command",), ["bogus-command"]),
-])
+@pytest.mark.parametrize(
+    "args, fragments",
+    [
+        (("fit", "nosuchcore"), ["nosuchcore"]),
+        (("fit", "missing_dir/file.csv"), ["file.csv"]),
+        (("fit", "B.3", "--models", "bogus"), ["unknown model", "bogus"]),
+        (("fit", "B.3", "--chain", "bogus"), ["bogus"]),
+        (("fit", "B.3", "--method", "magic"), ["magic"]),
+        (("fit", "B.3", "--steps", "10"), ["--steps"]),
+        (("fit", "B.3", "--rank-by", "looic"), ["looic", "mcmc"]),
+        (("fit", "B.3", "--source-impedance", "50"), ["50"]),
+        (("fit", "B.3", "--seed", "abc"), ["abc"]),
+        (("audit", "nosuch.csv"), ["nosuch.csv"]),
+        (("bogus-command",), ["bogus-command"]),
+    ],
+)
 def test_user_errors_are_one_line_and_exit_2(args, fragments):
     assert_user_error(run(*args), *fragments)
 
@@ -110,7 +124,13 @@ def test_user_csv_fits(tmp_path):
     good = tmp_path / "mycore.csv"
     rows = ["input_v,frequency_hz,df_reported,phase_lead_deg,source_impedance_ohm"]
     for f in (5.0, 10.0):
-        for v, d, ph in ((0.2, 0.5, 30), (0.5, 0.7, 15), (1.0, 0.8, 8), (2.0, 0.6, 20), (3.0, 0.45, 35)):
+        for v, d, ph in (
+            (0.2, 0.5, 30),
+            (0.5, 0.7, 15),
+            (1.0, 0.8, 8),
+            (2.0, 0.6, 20),
+            (3.0, 0.45, 35),
+        ):
             rows.append(f"{v},{f},{d},{ph},600")
     good.write_text("\n".join(rows) + "\n")
     p = run("fit", str(good), "--models", "constant_width", "--no-cv", "--quiet")
@@ -120,24 +140,48 @@ def test_user_csv_fits(tmp_path):
 
 def test_limit_cycle_command_prints_table_json_and_plot(tmp_path):
     plant = "K/((1+s)(1+0.25s)(1+1.1s))"
-    p = run("limit-cycle", "B.1", "--plant", plant, "--gain", "100", "500", "--model", "proportional_width")
+    p = run(
+        "limit-cycle",
+        "B.1",
+        "--plant",
+        plant,
+        "--gain",
+        "100",
+        "500",
+        "--model",
+        "proportional_width",
+    )
     assert p.returncode == 0, p.stderr
     assert "100" in p.stdout and "500" in p.stdout
     png = tmp_path / "loci.png"
-    j = run("limit-cycle", "B.1", "--plant", plant, "--gain", "500", "--model", "proportional_width", "--json",
-            "--plot", str(png))
+    j = run(
+        "limit-cycle",
+        "B.1",
+        "--plant",
+        plant,
+        "--gain",
+        "500",
+        "--model",
+        "proportional_width",
+        "--json",
+        "--plot",
+        str(png),
+    )
     assert j.returncode == 0, j.stderr
     data = json.loads(j.stdout)
     assert data and png.exists() and png.stat().st_size > 1000
 
 
-@pytest.mark.parametrize("args, fragments", [
-    (("limit-cycle", "B.1", "--plant", "K/((1+s)(1+0.25s"), ["plant"]),
-    (("limit-cycle", "B.1", "--plant", "__import__('os')"), ["plant"]),
-    (("limit-cycle", "permalloy", "--plant", "K/(1+s)"), ["source impedance"]),
-    (("limit-cycle", "B.1", "--plant", "K/(1+s)", "--model", "bogus"), ["bogus"]),
-    (("limit-cycle", "B.1", "--plant", "K/(1+s)", "--time-scale", "0"), ["--time-scale"]),
-    (("limit-cycle", "B.1"), ["--plant"]),
-])
+@pytest.mark.parametrize(
+    "args, fragments",
+    [
+        (("limit-cycle", "B.1", "--plant", "K/((1+s)(1+0.25s"), ["plant"]),
+        (("limit-cycle", "B.1", "--plant", "__import__('os')"), ["plant"]),
+        (("limit-cycle", "permalloy", "--plant", "K/(1+s)"), ["source impedance"]),
+        (("limit-cycle", "B.1", "--plant", "K/(1+s)", "--model", "bogus"), ["bogus"]),
+        (("limit-cycle", "B.1", "--plant", "K/(1+s)", "--time-scale", "0"), ["--time-scale"]),
+        (("limit-cycle", "B.1"), ["--plant"]),
+    ],
+)
 def test_limit_cycle_user_errors(args, fragments):
     assert_user_error(run(*args), *fragments)

@@ -1,12 +1,19 @@
 """Ranking, cross-validation and cross-impedance prediction."""
+
 import numpy as np
 import pandas as pd
 import pytest
-
-from fitdf.inference.ranking import RANK_COLUMNS, compare, cross_impedance, cross_validate, fit_all, ranking_table
-from fitdf.errors import OptionError
-
 from synthetic import synthetic_frame
+
+from fitdf.errors import OptionError
+from fitdf.inference.ranking import (
+    RANK_COLUMNS,
+    compare,
+    cross_impedance,
+    cross_validate,
+    fit_all,
+    ranking_table,
+)
 
 CHAIN = {"r_winding": 100.0, "gain": 0.95}
 RIVALS = ["constant_width", "proportional_width", "rayleigh"]
@@ -19,7 +26,9 @@ TRUTH = {
 
 @pytest.mark.parametrize("truth", RIVALS)
 def test_data_generated_by_a_model_rank_it_first(truth):
-    frame = synthetic_frame(truth, {**TRUTH[truth], **CHAIN}, source_impedances=(0.0, 600.0), seed=7)
+    frame = synthetic_frame(
+        truth, {**TRUTH[truth], **CHAIN}, source_impedances=(0.0, 600.0), seed=7
+    )
     table = compare(frame, models=RIVALS, cross_validation=False, policy="all")
     assert table.iloc[0]["model"] == truth, table[["model", "rms_complex", "aicc"]]
     # and by a wide margin: the others misfit by far more than the noise
@@ -33,8 +42,18 @@ def test_ranking_columns_and_ties():
     frame = synthetic_frame("proportional_width", {**TRUTH["proportional_width"], **CHAIN}, seed=1)
     results = fit_all(frame, models=["proportional_width", "proportional_width"], policy="all")
     table = ranking_table(results)
-    for col in ("n_params", "rms_complex", "rms_magnitude", "rms_phase_deg", "redchi", "aicc", "bic",
-                "delta_aicc", "aicc_weight", "indistinguishable_from"):
+    for col in (
+        "n_params",
+        "rms_complex",
+        "rms_magnitude",
+        "rms_phase_deg",
+        "redchi",
+        "aicc",
+        "bic",
+        "delta_aicc",
+        "aicc_weight",
+        "indistinguishable_from",
+    ):
         assert col in table
     # the same model twice cannot be told apart
     assert table.loc[0, "indistinguishable_from"] == "proportional_width/winding"
@@ -60,8 +79,16 @@ def test_cross_validation_predicts_a_held_out_frequency():
 
 def test_cross_impedance_prediction_table_on_real_data():
     table = cross_impedance("permalloy", models=["proportional_width", "rayleigh"])
-    assert set(table.columns) >= {"model", "train_ohm", "test_ohm", "train_rms_complex", "predict_rms_complex",
-                                  "predict_rms_magnitude", "predict_rms_phase_deg", "calibration_gain"}
+    assert set(table.columns) >= {
+        "model",
+        "train_ohm",
+        "test_ohm",
+        "train_rms_complex",
+        "predict_rms_complex",
+        "predict_rms_magnitude",
+        "predict_rms_phase_deg",
+        "calibration_gain",
+    }
     assert (table["test_ohm"] == 600).all() and (table["n_test"] > 30).all()
     assert table["predict_rms_complex"].is_monotonic_increasing
     assert np.isfinite(table["predict_rms_complex"]).all()
@@ -69,11 +96,21 @@ def test_cross_impedance_prediction_table_on_real_data():
 
 def test_cross_impedance_on_synthetic_truth():
     truth = {**TRUTH["rayleigh"], **CHAIN}
-    frame = pd.concat([synthetic_frame("rayleigh", truth, source_impedances=(0.0,), table="T0", seed=3),
-                       synthetic_frame("rayleigh", truth, source_impedances=(600.0,), table="T600", seed=4)])
+    frame = pd.concat(
+        [
+            synthetic_frame("rayleigh", truth, source_impedances=(0.0,), table="T0", seed=3),
+            synthetic_frame("rayleigh", truth, source_impedances=(600.0,), table="T600", seed=4),
+        ]
+    )
     for train, test in ((0.0, 600.0), (600.0, 0.0)):
-        table = cross_impedance(frame, models=["rayleigh", "constant_width"], policy="all", train_ohm=train,
-                                test_ohm=test, r_winding=CHAIN["r_winding"])
+        table = cross_impedance(
+            frame,
+            models=["rayleigh", "constant_width"],
+            policy="all",
+            train_ohm=train,
+            test_ohm=test,
+            r_winding=CHAIN["r_winding"],
+        )
         best = table.iloc[0]
         # with the winding resistance known, the generating model predicts the other impedance
         # at the noise level (0.005 in magnitude); the wrong model does not
@@ -89,15 +126,25 @@ def test_one_source_impedance_leaves_a_scale_symmetry():
     chain, model = get_chain("winding"), get_model("constant_width")
     V = np.linspace(0.05, 5, 40)
     f = np.full_like(V, 6.0)
-    base = chain.predict(model, V, f, np.full_like(V, 600.0), np.array([80.0, 2e-4, 0.04]), np.array([100.0, 1.0]))
+    base = chain.predict(
+        model, V, f, np.full_like(V, 600.0), np.array([80.0, 2e-4, 0.04]), np.array([100.0, 1.0])
+    )
     s = 3.0  # k -> s k, b -> b / s, c unchanged; R = 700 -> 2100 = 600 + 1500
-    scaled = chain.predict(model, V, f, np.full_like(V, 600.0), np.array([80.0 * s, 2e-4 / s, 0.04]),
-                           np.array([700.0 * s - 600.0, 1.0]))
+    scaled = chain.predict(
+        model,
+        V,
+        f,
+        np.full_like(V, 600.0),
+        np.array([80.0 * s, 2e-4 / s, 0.04]),
+        np.array([700.0 * s - 600.0, 1.0]),
+    )
     np.testing.assert_allclose(scaled, base, rtol=1e-8, atol=1e-10)
     # while at 0 ohm the same two cores differ: a joint fit can tell them apart
     zero = np.zeros_like(V)
     a = chain.predict(model, V, f, zero, np.array([80.0, 2e-4, 0.04]), np.array([100.0, 1.0]))
-    b = chain.predict(model, V, f, zero, np.array([80.0 * s, 2e-4 / s, 0.04]), np.array([700.0 * s - 600.0, 1.0]))
+    b = chain.predict(
+        model, V, f, zero, np.array([80.0 * s, 2e-4 / s, 0.04]), np.array([700.0 * s - 600.0, 1.0])
+    )
     assert np.max(np.abs(a - b)) > 0.05
 
 

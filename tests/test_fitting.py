@@ -1,14 +1,14 @@
 """Least-squares fitting: parameter recovery from synthetic data, determinism, row policy, errors."""
+
 import numpy as np
 import pandas as pd
 import pytest
+from synthetic import synthetic_frame
 
 import fitdf
 from fitdf.errors import DataError, ModelError, OptionError
 from fitdf.inference.api import resolve_data
 from fitdf.inference.problem import FitProblem
-
-from synthetic import synthetic_frame
 
 CHAIN = {"r_winding": 100.0, "gain": 0.95}
 
@@ -20,8 +20,18 @@ TRUTH = {
     "proportional_width_fig42": ({"k": 60.0, "c": 0.035, "m": 0.3}, {}),
     "rayleigh": ({"mu0": 20.0, "gamma": 8e4, "c_sat": 0.038}, {}),
     "frequency_hc": ({"k": 60.0, "c": 0.035, "m": 0.25, "hc_a": 8e-6, "hc_b": 2e-7}, {}),
-    "cubic_hc": ({"k": 60.0, "c": 0.035, "alpha": 0.5, "beta": 1e6, "h0": 2e-5, "h1": 4e-4, "tail_slope": 0.05},
-                 {"h0": 2e-5, "h1": 4e-4, "tail_slope": 0.05}),
+    "cubic_hc": (
+        {
+            "k": 60.0,
+            "c": 0.035,
+            "alpha": 0.5,
+            "beta": 1e6,
+            "h0": 2e-5,
+            "h1": 4e-4,
+            "tail_slope": 0.05,
+        },
+        {"h0": 2e-5, "h1": 4e-4, "tail_slope": 0.05},
+    ),
 }
 
 
@@ -66,7 +76,9 @@ def test_result_predict_matches_residual_table():
     rows = r.residuals
     pred = r.predict(rows["input_v"], rows["frequency_hz"], rows["source_impedance_ohm"])
     np.testing.assert_allclose(np.abs(pred), rows["df_predicted"], rtol=1e-12)
-    np.testing.assert_allclose(np.angle(pred, deg=True), rows["phase_lead_predicted_deg"], atol=1e-9)
+    np.testing.assert_allclose(
+        np.angle(pred, deg=True), rows["phase_lead_predicted_deg"], atol=1e-9
+    )
     d = r.to_dict()
     assert {p["parameter"] for p in d["parameters"]} == set(r.values)
     assert len(d["rows_used"]) == len(frame)

@@ -1,4 +1,5 @@
 """Harmonic balance against closed forms, Loeb's criterion, gain sweeps, and the thesis loop."""
+
 from __future__ import annotations
 
 import json
@@ -16,16 +17,18 @@ from fitdf.loop.harmonic import critical_gain, limit_cycles
 from fitdf.plots.limit_cycles import plot_nyquist, plot_thesis_comparison
 from fitdf.thesis import THESIS_PLANT, estimate_thesis_scales, thesis_limit_cycle_comparison
 
-PLANT = "K/(s(s+1)(s+2))"          # -180 deg at w = sqrt(2), |G(j sqrt 2)| = K / 6
+PLANT = "K/(s(s+1)(s+2))"  # -180 deg at w = sqrt(2), |G(j sqrt 2)| = K / 6
 
 
 def relay(M=1.0, h=0.1):
     """Ideal relay with hysteresis: N = 4M/(pi A) (sqrt(1 - (h/A)^2) - j h/A)."""
+
     def N(A, w):
         A = np.asarray(A, float)
         with np.errstate(all="ignore"):
             out = 4 * M / (np.pi * A) * (np.sqrt(1 - (h / A) ** 2) - 1j * h / A)
         return np.where(A > h, out, np.nan)
+
     return N
 
 
@@ -42,11 +45,13 @@ def saturation(A, w):
 
 def dead_zone_relay(M=1.0, delta=0.5):
     """N = 4M/(pi A) sqrt(1 - (delta/A)^2) for A > delta, else 0; maximum 2M/(pi delta) at A = sqrt(2) delta."""
+
     def N(A, w):
         A = np.asarray(A, float)
         with np.errstate(all="ignore"):
             out = 4 * M / (np.pi * A) * np.sqrt(np.clip(1 - (delta / A) ** 2, 0, None))
         return np.where(A > delta, out, 0.0) + 0j
+
     return N
 
 
@@ -54,8 +59,10 @@ def relay_analytic(K, M=1.0, h=0.1):
     """Closed form: Im G(jw) = -pi h / (4M) is a quintic in w; then Re G gives A."""
     c = np.pi * h / (4 * M)
     # G = K / (jw (1+jw)(2+jw)): Im G = -K (2 - w^2) / (w (9 w^2 + (2 - w^2)^2))
-    quintic = np.polysub(K * np.array([-1.0, 0.0, 2.0]),
-                         np.polymul([c, 0.0], np.polyadd([9.0, 0.0, 0.0], np.polymul([-1, 0, 2], [-1, 0, 2]))))
+    quintic = np.polysub(
+        K * np.array([-1.0, 0.0, 2.0]),
+        np.polymul([c, 0.0], np.polyadd([9.0, 0.0, 0.0], np.polymul([-1, 0, 2], [-1, 0, 2]))),
+    )
     roots = np.roots(quintic)
     w = roots[(np.abs(roots.imag) < 1e-9) & (roots.real > 0)].real
     assert w.size == 1
@@ -86,7 +93,9 @@ def test_saturation_critical_gain_and_amplitude():
     assert below["amplitude"].isna().all()
     above = table[table["gain"] > 6]
     for _, row in above.iterrows():
-        A_exact = brentq(lambda a: saturation_df(a) - 6.0 / row["gain"], 1.0 + 1e-12, 1e3, xtol=1e-14)
+        A_exact = brentq(
+            lambda a: saturation_df(a) - 6.0 / row["gain"], 1.0 + 1e-12, 1e3, xtol=1e-14
+        )
         assert row["amplitude"] == pytest.approx(A_exact, rel=1e-6)
         assert row["omega_rad_s"] == pytest.approx(np.sqrt(2), rel=1e-8)
     assert all(c.stable for c in r.intersections)
@@ -104,23 +113,31 @@ def test_loeb_stable_and_unstable_cycles():
     roots = np.sqrt((1 + np.array([-1, 1]) * np.sqrt(1 - 4 * q * delta**2)) / (2 * q))
     np.testing.assert_allclose([c.amplitude for c in cycles], roots, rtol=1e-6)
     # the pair is born as a double root at K = 6 / N_max = 3 pi delta / M, A = sqrt(2) delta
-    crit = critical_gain(PLANT.replace("K", "1"), dead_zone_relay(M, delta), amplitude_range=(0.3, 30))
+    crit = critical_gain(
+        PLANT.replace("K", "1"), dead_zone_relay(M, delta), amplitude_range=(0.3, 30)
+    )
     assert crit["gain"] == pytest.approx(3 * np.pi * delta / M, rel=1e-7)
     assert crit["amplitude"] == pytest.approx(np.sqrt(2) * delta, rel=1e-4)
     assert not crit["at_boundary"]
     # below the critical gain nothing, not even a spurious root near the tangency
-    assert limit_cycles(PLANT, dead_zone_relay(M, delta), gains=[0.99 * crit["gain"]],
-                        amplitude_range=(0.3, 30)).intersections == ()
+    assert (
+        limit_cycles(
+            PLANT, dead_zone_relay(M, delta), gains=[0.99 * crit["gain"]], amplitude_range=(0.3, 30)
+        ).intersections
+        == ()
+    )
 
 
 def test_gain_sweep_is_monotone():
     gains = np.geomspace(0.5, 20, 12)
     t = limit_cycles(PLANT, relay(), gains=gains, amplitude_range=(0.1001, 100)).stable_cycles()
     assert t["amplitude"].notna().all()
-    assert np.all(np.diff(t["amplitude"]) > 0)       # relay: A grows with K
-    assert np.all(np.diff(t["omega_rad_s"]) > 0)     # and w climbs towards sqrt(2)
+    assert np.all(np.diff(t["amplitude"]) > 0)  # relay: A grows with K
+    assert np.all(np.diff(t["omega_rad_s"]) > 0)  # and w climbs towards sqrt(2)
     assert t["omega_rad_s"].max() < np.sqrt(2)
-    s = limit_cycles(PLANT, saturation, gains=np.geomspace(6.5, 60, 8), amplitude_range=(0.01, 100)).stable_cycles()
+    s = limit_cycles(
+        PLANT, saturation, gains=np.geomspace(6.5, 60, 8), amplitude_range=(0.01, 100)
+    ).stable_cycles()
     assert np.all(np.diff(s["amplitude"]) > 0)
 
 
@@ -132,9 +149,16 @@ def test_frequency_dependent_N_equals_moving_the_lag_into_the_plant():
         return saturation_df(A) / (1 + 1j * np.asarray(w) * T)
 
     gains = [4.0, 10.0]
-    a = limit_cycles("K/(s(s+1))", lagged, gains=gains, amplitude_range=(0.01, 100), omega_range=(0.05, 50))
-    b = limit_cycles("K/(s(s+1)(1+0.5s))", saturation, gains=gains, amplitude_range=(0.01, 100),
-                     omega_range=(0.05, 50))
+    a = limit_cycles(
+        "K/(s(s+1))", lagged, gains=gains, amplitude_range=(0.01, 100), omega_range=(0.05, 50)
+    )
+    b = limit_cycles(
+        "K/(s(s+1)(1+0.5s))",
+        saturation,
+        gains=gains,
+        amplitude_range=(0.01, 100),
+        omega_range=(0.05, 50),
+    )
     ta, tb = a.table(), b.table()
     np.testing.assert_allclose(ta["amplitude"], tb["amplitude"], rtol=1e-7)
     np.testing.assert_allclose(ta["omega_rad_s"], tb["omega_rad_s"], rtol=1e-7)
@@ -169,11 +193,14 @@ def test_response_table_json_and_plot():
     assert ax.get_xlabel() == "Re" and len(ax.lines) >= 4
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    ({"gains": [-1.0]}, "positive"),
-    ({"gains": None}, "contains K"),
-    ({"gains": [1.0], "amplitude_range": (2.0, 1.0)}, "low < high"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"gains": [-1.0]}, "positive"),
+        ({"gains": None}, "contains K"),
+        ({"gains": [1.0], "amplitude_range": (2.0, 1.0)}, "low < high"),
+    ],
+)
 def test_option_errors(kwargs, match):
     kwargs.setdefault("amplitude_range", (0.2, 10))
     with pytest.raises(OptionError, match=match):
@@ -195,7 +222,11 @@ class _StubFit:
 
     def predict(self, amplitude, frequency, source_impedance=0.0):
         A = np.asarray(amplitude, float)
-        return saturation_df(A / 0.5) * np.exp(1j * self.lead) * np.ones_like(np.asarray(frequency, float))
+        return (
+            saturation_df(A / 0.5)
+            * np.exp(1j * self.lead)
+            * np.ones_like(np.asarray(frequency, float))
+        )
 
 
 def test_estimate_thesis_scales_recovers_known_scales():
@@ -203,10 +234,19 @@ def test_estimate_thesis_scales_recovers_known_scales():
     fit = _StubFit()
     alpha, beta = 2.5, 0.3
     K = np.array([500.0, 1000.0, 2000.0, 4000.0])
-    r = limit_cycles(THESIS_PLANT, fit, beta * K, amplitude_range=(0.01, 50), time_scale=alpha).stable_cycles()
+    r = limit_cycles(
+        THESIS_PLANT, fit, beta * K, amplitude_range=(0.01, 50), time_scale=alpha
+    ).stable_cycles()
     assert r["amplitude"].notna().all()
-    rows = pd.DataFrame({"core": "stub", "source_impedance_ohm": 0.0, "system_gain": K,
-                         "amplitude_v": r["amplitude"], "omega_rad_s": r["omega_rad_s"]})
+    rows = pd.DataFrame(
+        {
+            "core": "stub",
+            "source_impedance_ohm": 0.0,
+            "system_gain": K,
+            "amplitude_v": r["amplitude"],
+            "omega_rad_s": r["omega_rad_s"],
+        }
+    )
     est = estimate_thesis_scales(rows, {("stub", 0.0): fit})
     assert est["alpha"] == pytest.approx(alpha, rel=1e-6)
     assert est["beta"] == pytest.approx(beta, rel=1e-6)
@@ -216,27 +256,50 @@ def test_estimate_thesis_scales_recovers_known_scales():
 def test_fitted_core_in_the_thesis_loop():
     """A small fit to Table B.1: cycles lie in the second quadrant (phase lead, Graph 5.21) and balance."""
     res = fit("B.1", "proportional_width", seed=0, n_starts=2)
-    r = limit_cycles(THESIS_PLANT, res, gains=[50.0, 150.0], source_impedance=0.0, time_scale=2.5,
-                     amplitude_range=(0.02, 10))
+    r = limit_cycles(
+        THESIS_PLANT,
+        res,
+        gains=[50.0, 150.0],
+        source_impedance=0.0,
+        time_scale=2.5,
+        amplitude_range=(0.02, 10),
+    )
     assert r.intersections, f"no cycle with the fitted values {res.values}"
     for c in r.intersections:
         assert abs(1 + c.G * c.N) < 1e-8
-        assert c.G.real < 0 < c.G.imag          # second quadrant
-        assert np.angle(c.N) > 0                # the core's voltage transfer leads
-    text = format_limit_cycle_table({"plant": THESIS_PLANT, "model": res.model, "chain": res.chain, "data": "B.1",
-                                     "source_impedance_ohm": 0.0, **r.to_dict()})
+        assert c.G.real < 0 < c.G.imag  # second quadrant
+        assert np.angle(c.N) > 0  # the core's voltage transfer leads
+    text = format_limit_cycle_table(
+        {
+            "plant": THESIS_PLANT,
+            "model": res.model,
+            "chain": res.chain,
+            "data": "B.1",
+            "source_impedance_ohm": 0.0,
+            **r.to_dict(),
+        }
+    )
     assert "die out below gain" in text
 
 
 def test_fitted_limit_cycles_are_json_ready(tmp_path):
-    found = fitted_limit_cycles("B.1", THESIS_PLANT, [100.0, 400.0], None, model="constant_width", seed=0,
-                                time_scale=2.5, amplitude_range=(0.02, 10), n_starts=2)
+    found = fitted_limit_cycles(
+        "B.1",
+        THESIS_PLANT,
+        [100.0, 400.0],
+        None,
+        model="constant_width",
+        seed=0,
+        time_scale=2.5,
+        amplitude_range=(0.02, 10),
+        n_starts=2,
+    )
     plot_nyquist(found.response).savefig(tmp_path / "loci.png")
     assert (tmp_path / "loci.png").stat().st_size > 0
     out = found.to_dict()
     json.dumps(out, allow_nan=False)
     assert out["model"] == "constant_width" and out["gains"] == [100.0, 400.0]
-    assert out["source_impedance_ohm"] == 0.0          # B.1's only impedance
+    assert out["source_impedance_ohm"] == 0.0  # B.1's only impedance
     text = format_limit_cycle_table(out)
     assert text.count("\n") >= 5 and "constant_width" in text
 

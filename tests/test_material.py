@@ -1,4 +1,5 @@
 """Core geometry, unit conversions and law-generic material constants (fitdf.data.cores, fitdf.inference.material)."""
+
 from __future__ import annotations
 
 import json
@@ -39,6 +40,7 @@ IN = 0.0254
 
 # --- geometry and unit conversions (hand-computed numbers) ----------------------------------
 
+
 def test_permalloy_geometry_by_hand():
     g = core_geometry("permalloy")
     # 2.5 x 2.0 x 0.5 in, 1250 turns: l_e = pi * 2.25 in, A_e = 0.25 in * 0.5 in * 0.85
@@ -48,8 +50,8 @@ def test_permalloy_geometry_by_hand():
     assert g.a_e == pytest.approx(6.854825e-5, rel=1e-6)
     assert g.stacking_factor == STACKING_FACTOR == 0.85
     assert g.r_winding_estimate == winding_resistance_estimate("permalloy")
-    assert g.field_per_ampere == pytest.approx(6962.16, rel=1e-5)            # A/m per A
-    assert float(g.field_oe(1.0)) == pytest.approx(87.489, rel=1e-4)          # Oe per A
+    assert g.field_per_ampere == pytest.approx(6962.16, rel=1e-5)  # A/m per A
+    assert float(g.field_oe(1.0)) == pytest.approx(87.489, rel=1e-4)  # Oe per A
     # mu_0 N^2 A_e / l_e = 4 pi 1e-7 * 1.5625e6 * 6.8548e-5 / 0.17954 = 7.4965e-4 H
     assert g.inductance_per_permeability == pytest.approx(7.49653e-4, rel=1e-5)
     # mu_i = 10,000-40,000 -> 7.5-30 H at the assumed stacking factor 0.85; the issue's
@@ -63,7 +65,7 @@ def test_permalloy_geometry_by_hand():
 def test_deltamax_and_supermalloy_geometry():
     d = core_geometry("deltamax")
     assert d.turns == 2000
-    assert d.l_e == pytest.approx(math.pi * 1.125 * IN, rel=1e-12)      # 0.08977 m
+    assert d.l_e == pytest.approx(math.pi * 1.125 * IN, rel=1e-12)  # 0.08977 m
     assert d.a_e == pytest.approx(0.125 * 0.125 * IN**2 * 0.85, rel=1e-12)  # 8.5685e-6 m^2
     assert d.inductance_per_permeability == pytest.approx(4.7978e-4, rel=1e-4)
     assert d.field_per_ampere == pytest.approx(22278.9, rel=1e-5)
@@ -85,8 +87,12 @@ def test_unit_constants_and_round_trips():
     assert permeability_from_inductance(10.0, g) == pytest.approx(10.0 / 7.49653e-4, rel=1e-5)
     x = np.array([0.003, 0.1, 7.0])
     np.testing.assert_allclose(field_from_current(current_from_field(x, g), g), x, rtol=1e-14)
-    np.testing.assert_allclose(induction_from_flux_linkage(flux_linkage_from_induction(x, g), g), x, rtol=1e-14)
-    np.testing.assert_allclose(permeability_from_inductance(inductance_from_permeability(x, g), g), x, rtol=1e-14)
+    np.testing.assert_allclose(
+        induction_from_flux_linkage(flux_linkage_from_induction(x, g), g), x, rtol=1e-14
+    )
+    np.testing.assert_allclose(
+        permeability_from_inductance(inductance_from_permeability(x, g), g), x, rtol=1e-14
+    )
     # 0.1 Oe on Permalloy: 7.9577 A/m * l_e / N = 1.1430 mA
     assert current_from_field(0.1, g) == pytest.approx(7.95775 * 0.179542 / 1250, rel=1e-5)
     assert isinstance(current_from_field(0.1, g), float)
@@ -97,12 +103,20 @@ def test_user_geometry_from_dimensions_matches_bundled_core():
     user = CoreGeometry.from_dimensions(2000, 1.25 * IN, 1.0 * IN, 0.125 * IN, name="mine")
     assert user.l_e == pytest.approx(bundled.l_e, rel=1e-14)
     assert user.a_e == pytest.approx(bundled.a_e, rel=1e-14)
-    assert user.inductance_per_permeability == pytest.approx(bundled.inductance_per_permeability, rel=1e-14)
+    assert user.inductance_per_permeability == pytest.approx(
+        bundled.inductance_per_permeability, rel=1e-14
+    )
     theta = {"mu0": 3.0, "gamma": 5e3, "c_sat": 0.02}
     a = material_constants(Rayleigh, theta, bundled, current_max=2e-3).appendix_a_values()
     b = material_constants(Rayleigh, theta, user, current_max=2e-3).appendix_a_values()
-    for q in ("initial_permeability", "maximum_permeability", "coercive_force_Hc", "peak_flux_density_Bp",
-              "residual_induction_Br", "squareness_Br_over_Bp"):
+    for q in (
+        "initial_permeability",
+        "maximum_permeability",
+        "coercive_force_Hc",
+        "peak_flux_density_Bp",
+        "residual_induction_Br",
+        "squareness_Br_over_Bp",
+    ):
         assert b[q] == pytest.approx(a[q], rel=1e-12)
     with pytest.raises(OptionError):
         CoreGeometry.from_dimensions(100, 0.01, 0.02, 0.005)
@@ -112,41 +126,62 @@ def test_user_geometry_from_dimensions_matches_bundled_core():
 
 def test_appendix_a_ranges():
     r = appendix_a_ranges("permalloy")
-    assert set(r) == {"initial_permeability", "maximum_permeability", "coercive_force_Hc",
-                      "peak_flux_density_Bp", "residual_induction_Br", "squareness_Br_over_Bp"}
+    assert set(r) == {
+        "initial_permeability",
+        "maximum_permeability",
+        "coercive_force_Hc",
+        "peak_flux_density_Bp",
+        "residual_induction_Br",
+        "squareness_Br_over_Bp",
+    }
     assert r["initial_permeability"] == (1e4, 4e4, "gauss/oersted")
-    assert r["coercive_force_Hc"] == (0.02, 0.25, "oersted")          # union of 3 printed ranges
+    assert r["coercive_force_Hc"] == (0.02, 0.25, "oersted")  # union of 3 printed ranges
     assert r["peak_flux_density_Bp"] == (6500.0, 8000.0, "gauss")
     assert r["residual_induction_Br"] == (4000.0, 7000.0, "gauss")
     assert r["squareness_Br_over_Bp"] == (0.5, 0.9, "")
     d = appendix_a_ranges("deltamax")
-    assert d["squareness_Br_over_Bp"] == (0.92, None, "")              # "0.92 min."
+    assert d["squareness_Br_over_Bp"] == (0.92, None, "")  # "0.92 min."
     assert d["coercive_force_Hc"] == (0.04, 0.60, "oersted")
     assert appendix_a_ranges("supermalloy")["coercive_force_Hc"] == (0.003, 0.10, "oersted")
 
 
 # --- material constants against closed forms ------------------------------------------------
 
+
 def test_rayleigh_constants_against_closed_forms():
     g = core_geometry("permalloy")
     mu0, gamma, i_max = 15.0, 2e4, 2e-3
-    theta = {"mu0": mu0, "gamma": gamma, "c_sat": np.inf, "r_winding": 61.0, "gain": 0.95}   # chain keys ignored
+    theta = {
+        "mu0": mu0,
+        "gamma": gamma,
+        "c_sat": np.inf,
+        "r_winding": 61.0,
+        "gain": 0.95,
+    }  # chain keys ignored
     mc = material_constants(Rayleigh, theta, g, current_max=i_max)
     # N(0) = mu0 (eq 3.1); the tiny amplitude adds gamma * 1e-6 * i_max = 4e-5 H (Re N = mu0 + gamma A)
-    assert mc.initial_inductance_h == pytest.approx(mu0 + gamma * SMALL_SIGNAL_RATIO * i_max, rel=1e-14)
+    assert mc.initial_inductance_h == pytest.approx(
+        mu0 + gamma * SMALL_SIGNAL_RATIO * i_max, rel=1e-14
+    )
     assert mc.initial_inductance_h == pytest.approx(mu0, rel=3e-6)
     assert mc.initial_converged
     assert mc.initial_permeability == pytest.approx(g.relative_permeability(mu0), rel=3e-6)
     # eqs 3.9, 3.10; tip (mu0 + gamma A) A
-    assert mc.coercive_current_a == pytest.approx(float(coercive_force(i_max, mu0, gamma)), rel=1e-12)
+    assert mc.coercive_current_a == pytest.approx(
+        float(coercive_force(i_max, mu0, gamma)), rel=1e-12
+    )
     assert mc.residual_flux_linkage_vs == pytest.approx(float(remanence(i_max, gamma)), rel=1e-12)
     assert mc.peak_flux_linkage_vs == pytest.approx((mu0 + gamma * i_max) * i_max, rel=1e-14)
     assert mc.squareness == pytest.approx(gamma * i_max / (2 * (mu0 + gamma * i_max)), rel=1e-12)
     # B/H at the tip grows with amplitude: the maximum is at current_max (a lower bound)
     assert mc.maximum_inductance_h == pytest.approx(mu0 + gamma * i_max, rel=1e-12)
     assert mc.maximum_at_edge
-    assert mc.coercive_force_oe == pytest.approx(float(g.field_oe(coercive_force(i_max, mu0, gamma))), rel=1e-12)
-    assert mc.residual_induction_gauss == pytest.approx(float(g.induction_gauss(gamma * i_max**2 / 2)), rel=1e-12)
+    assert mc.coercive_force_oe == pytest.approx(
+        float(g.field_oe(coercive_force(i_max, mu0, gamma))), rel=1e-12
+    )
+    assert mc.residual_induction_gauss == pytest.approx(
+        float(g.induction_gauss(gamma * i_max**2 / 2)), rel=1e-12
+    )
     assert mc.winding_resistance_ohm == 61.0
     assert mc.winding_resistance_estimate_ohm == g.r_winding_estimate
 
@@ -158,8 +193,12 @@ def test_rayleigh_landmarks_vectorised_with_saturation():
     # the odd, increasing limiter moves neither the zero (eq 3.10) ...
     np.testing.assert_allclose(marks["coercive"], coercive_force(a, mu0, gamma), rtol=1e-10)
     # ... while B_r and the tip go through it
-    np.testing.assert_allclose(marks["residual"], frohlich_kennelly(remanence(a, gamma), c_sat), rtol=1e-12)
-    np.testing.assert_allclose(marks["tip"], frohlich_kennelly((mu0 + gamma * a) * a, c_sat), rtol=1e-12)
+    np.testing.assert_allclose(
+        marks["residual"], frohlich_kennelly(remanence(a, gamma), c_sat), rtol=1e-12
+    )
+    np.testing.assert_allclose(
+        marks["tip"], frohlich_kennelly((mu0 + gamma * a) * a, c_sat), rtol=1e-12
+    )
 
 
 def test_constant_width_constants_from_loop_geometry():
@@ -174,7 +213,7 @@ def test_constant_width_constants_from_loop_geometry():
     assert mc.maximum_inductance_h == pytest.approx(k * c / (k * b + c), rel=1e-9)
     assert mc.maximum_amplitude_a == pytest.approx(b + c / k, rel=1e-6)
     assert not mc.maximum_at_edge
-    assert mc.initial_inductance_h == 0.0        # the play: no small-signal inductance
+    assert mc.initial_inductance_h == 0.0  # the play: no small-signal inductance
     assert mc.initial_converged
     assert mc.coercive_force_a_per_m == pytest.approx(b * 2000 / g.l_e, rel=1e-12)
     # not saturated at current_max: B_r = k b, tip k (A - b)
@@ -200,10 +239,18 @@ def test_frequency_dependent_law_needs_a_frequency():
 
 # --- the check against Appendix A -----------------------------------------------------------
 
+
 def _values(**over):
-    v = {"initial_permeability": 2e4, "maximum_permeability": 1e5, "coercive_force_Hc": 0.1,
-         "peak_flux_density_Bp": 7000.0, "residual_induction_Br": 5000.0, "squareness_Br_over_Bp": 0.7,
-         "winding_resistance": 50.0, "winding_resistance_estimate": 50.0}
+    v = {
+        "initial_permeability": 2e4,
+        "maximum_permeability": 1e5,
+        "coercive_force_Hc": 0.1,
+        "peak_flux_density_Bp": 7000.0,
+        "residual_induction_Br": 5000.0,
+        "squareness_Br_over_Bp": 0.7,
+        "winding_resistance": 50.0,
+        "winding_resistance_estimate": 50.0,
+    }
     v.update(over)
     return v
 
@@ -215,30 +262,45 @@ def test_appendix_a_check_edges_inclusive():
     assert all(r["inside"] for r in rows)
     assert all(set(r) == {"quantity", "fitted", "low", "high", "unit", "inside"} for r in rows)
     for q, (lo, hi, _) in ranges.items():
-        for value, expect in ((lo, True), (hi, True), (np.nextafter(lo, -np.inf), False),
-                              (np.nextafter(hi, np.inf), False), (float("nan"), False)):
+        for value, expect in (
+            (lo, True),
+            (hi, True),
+            (np.nextafter(lo, -np.inf), False),
+            (np.nextafter(hi, np.inf), False),
+            (float("nan"), False),
+        ):
             row = {r["quantity"]: r for r in appendix_a_check(_values(**{q: value}), ranges)}[q]
             assert row["inside"] is expect, (q, value)
     # resistance: estimate +- 30 %, edges included
     for value, expect in ((35.0, True), (65.0, True), (34.99, False), (65.01, False)):
         row = appendix_a_check(_values(winding_resistance=value), ranges)[-1]
         assert row["quantity"] == "winding_resistance" and row["inside"] is expect
-        assert (row["low"], row["high"], row["unit"]) == (pytest.approx(35.0), pytest.approx(65.0), "ohm")
+        assert (row["low"], row["high"], row["unit"]) == (
+            pytest.approx(35.0),
+            pytest.approx(65.0),
+            "ohm",
+        )
     # no fitted resistance: no resistance row
     rows = appendix_a_check(_values(winding_resistance=None), ranges)
     assert "winding_resistance" not in [r["quantity"] for r in rows]
 
 
 def test_appendix_a_check_open_range_and_json():
-    ranges = appendix_a_ranges("deltamax")           # squareness "0.92 min."
+    ranges = appendix_a_ranges("deltamax")  # squareness "0.92 min."
     row = {r["quantity"]: r for r in appendix_a_check(_values(squareness_Br_over_Bp=5.0), ranges)}
     assert row["squareness_Br_over_Bp"]["inside"] and row["squareness_Br_over_Bp"]["high"] is None
-    assert not {r["quantity"]: r for r in appendix_a_check(_values(squareness_Br_over_Bp=0.9199), ranges)}[
-        "squareness_Br_over_Bp"]["inside"]
+    assert not {
+        r["quantity"]: r for r in appendix_a_check(_values(squareness_Br_over_Bp=0.9199), ranges)
+    }["squareness_Br_over_Bp"]["inside"]
     # from a real fit: plain Python types, JSON-serialisable
     g = core_geometry("permalloy")
-    mc = material_constants(Rayleigh, {"mu0": 15.0, "gamma": 2e4, "c_sat": 0.3}, g, current_max=2e-3,
-                            winding_resistance=60.0)
+    mc = material_constants(
+        Rayleigh,
+        {"mu0": 15.0, "gamma": 2e4, "c_sat": 0.3},
+        g,
+        current_max=2e-3,
+        winding_resistance=60.0,
+    )
     rows = appendix_a_check(mc, appendix_a_ranges("permalloy"))
     json.dumps(rows)
     json.dumps(mc.to_dict())
@@ -248,4 +310,4 @@ def test_appendix_a_check_open_range_and_json():
     by_q = {r["quantity"]: r for r in rows}
     assert by_q["initial_permeability"]["fitted"] == pytest.approx(mc.initial_permeability)
     assert by_q["coercive_force_Hc"]["unit"] == "oersted"
-    assert by_q["winding_resistance"]["inside"]           # 60 within 53.8 +- 30 %
+    assert by_q["winding_resistance"]["inside"]  # 60 within 53.8 +- 30 %

@@ -1,14 +1,13 @@
 """MCMC: reproducibility, diagnostics, vectorised log-probability, posterior recovery."""
+
 import numpy as np
 import pytest
+from synthetic import synthetic_frame
 
-import fitdf
 from fitdf.inference.api import resolve_data
-from fitdf.inference.problem import FitProblem
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.mcmc import LogPosterior, fit_mcmc
-
-from synthetic import synthetic_frame
+from fitdf.inference.problem import FitProblem
 
 TRUE = {"k": 60.0, "c": 0.035, "m": 0.3, "r_winding": 100.0, "gain": 0.95}
 

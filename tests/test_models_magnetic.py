@@ -1,18 +1,27 @@
 """Rayleigh loop (eqs 3.7-3.11, Frohlich-Kennelly saturation) and frequency-dependent H_c (eq 3.23)."""
+
 import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import integrate
 
 from fitdf.models import get_model, model_names
 from fitdf.models.constant_width import ConstantWidth
 from fitdf.models.frequency_hc import FrequencyHc, coercive_current
 from fitdf.models.proportional_width import ProportionalWidth
-from fitdf.models.rayleigh import (Rayleigh, coercive_force, coercive_force_small_signal,
-                                   frohlich_kennelly, rayleigh_branch, rayleigh_describing_function,
-                                   remanence, saturated_describing_function)
+from fitdf.models.rayleigh import (
+    Rayleigh,
+    coercive_force,
+    coercive_force_small_signal,
+    frohlich_kennelly,
+    rayleigh_branch,
+    rayleigh_describing_function,
+    remanence,
+    saturated_describing_function,
+)
 
 AMPS = np.logspace(-6, -2, 25)
 log_uniform = lambda lo, hi: st.floats(np.log10(lo), np.log10(hi)).map(lambda e: 10.0**e)  # noqa: E731
@@ -23,6 +32,7 @@ def descending(x, A, **theta):
 
 
 # --- Rayleigh without saturation: closed form ----------------------------------------------
+
 
 @pytest.mark.parametrize("mu0, gamma", [(100.0, 1e4), (20.0, 1e6), (1000.0, 1.0)])
 def test_closed_form_matches_referee(mu0, gamma):
@@ -59,12 +69,15 @@ def test_quadrature_component_is_loop_area():
 
 # --- eqs 3.8 - 3.11 ------------------------------------------------------------------------
 
+
 @settings(max_examples=60, deadline=None)
 @given(A=log_uniform(1e-6, 1e-1), mu0=log_uniform(1.0, 1e4), gamma=log_uniform(1.0, 1e8))
 def test_remanence_and_coercive_force_on_the_branch(A, mu0, gamma):
     scale = (mu0 + gamma * A) * A  # |B| at the tip
     # eq 3.9: the branches cross x = 0 at -+B_r
-    assert Rayleigh.ascending_branch(0.0, A, mu0=mu0, gamma=gamma) == pytest.approx(-remanence(A, gamma), rel=1e-12)
+    assert Rayleigh.ascending_branch(0.0, A, mu0=mu0, gamma=gamma) == pytest.approx(
+        -remanence(A, gamma), rel=1e-12
+    )
     assert descending(0.0, A, mu0=mu0, gamma=gamma) == pytest.approx(remanence(A, gamma), rel=1e-12)
     # eq 3.10: the ascending branch is zero at +H_c, 0 <= H_c < A
     Hc = coercive_force(A, mu0, gamma)
@@ -98,13 +111,16 @@ def test_slope_of_lower_branch_eq_3_8():
     A, mu0, gamma = 2e-3, 100.0, 1e4
     x = np.linspace(-A, A, 7)
     h = 1e-9
-    slope = (rayleigh_branch(x + h, A, mu0, gamma) - rayleigh_branch(x - h, A, mu0, gamma)) / (2 * h)
+    slope = (rayleigh_branch(x + h, A, mu0, gamma) - rayleigh_branch(x - h, A, mu0, gamma)) / (
+        2 * h
+    )
     np.testing.assert_allclose(slope, mu0 + gamma * A + gamma * x, rtol=1e-6)
     assert slope[-1] == pytest.approx(mu0 + 2 * gamma * A, rel=1e-6)
     assert slope[0] == pytest.approx(mu0, rel=1e-6)
 
 
 # --- Frohlich-Kennelly saturation ------------------------------------------------------------
+
 
 def test_frohlich_kennelly_limiter():
     u = np.linspace(-5, 5, 101)
@@ -130,18 +146,29 @@ def _adaptive(A, mu0, gamma, c_sat):
     tc = np.arcsin(coercive_force(A, mu0, gamma) / A)
 
     def part(weight):
-        f = lambda t: Rayleigh.ascending_branch(A * np.sin(t), A, mu0=mu0, gamma=gamma, c_sat=c_sat) * weight(t)  # noqa
-        with warnings.catch_warnings():  # "roundoff detected" near 1e-12 is harmless at the 1e-6 asked
+        f = lambda t: (
+            Rayleigh.ascending_branch(A * np.sin(t), A, mu0=mu0, gamma=gamma, c_sat=c_sat)
+            * weight(t)
+        )  # noqa
+        with (
+            warnings.catch_warnings()
+        ):  # "roundoff detected" near 1e-12 is harmless at the 1e-6 asked
             warnings.simplefilter("ignore", integrate.IntegrationWarning)
-            return sum(integrate.quad(f, a, b, epsabs=0, epsrel=1e-11, limit=400)[0]
-                       for a, b in ((-np.pi / 2, tc), (tc, np.pi / 2)))
+            return sum(
+                integrate.quad(f, a, b, epsabs=0, epsrel=1e-11, limit=400)[0]
+                for a, b in ((-np.pi / 2, tc), (tc, np.pi / 2))
+            )
 
     return 2 / np.pi * (part(np.sin) + 1j * part(np.cos)) / A
 
 
 @settings(max_examples=25, deadline=None)
-@given(A=log_uniform(1e-6, 1.0), mu0=log_uniform(1.0, 1e4), gamma=log_uniform(1.0, 1e8),
-       c_sat=log_uniform(1e-4, 10.0))
+@given(
+    A=log_uniform(1e-6, 1.0),
+    mu0=log_uniform(1.0, 1e4),
+    gamma=log_uniform(1.0, 1e8),
+    c_sat=log_uniform(1e-4, 10.0),
+)
 def test_saturated_quadrature_matches_adaptive_quadrature(A, mu0, gamma, c_sat):
     # deep saturation too (mu* A / c_sat up to ~1e8), where the referee's grid is too coarse
     N = saturated_describing_function(A, mu0, gamma, c_sat)
@@ -151,10 +178,15 @@ def test_saturated_quadrature_matches_adaptive_quadrature(A, mu0, gamma, c_sat):
 def test_infinite_c_sat_is_the_closed_form_and_large_c_sat_tends_to_it():
     mu0, gamma = 100.0, 1e4
     closed = rayleigh_describing_function(AMPS, mu0, gamma)
-    np.testing.assert_allclose(saturated_describing_function(AMPS, mu0, gamma, np.inf), closed, rtol=1e-8)
-    np.testing.assert_allclose(Rayleigh.describing_function(AMPS, mu0=mu0, gamma=gamma, c_sat=1e6), closed,
-                               rtol=1e-5)
-    mixed = Rayleigh.describing_function(AMPS, mu0=mu0, gamma=gamma, c_sat=np.array([[np.inf], [0.01]]))
+    np.testing.assert_allclose(
+        saturated_describing_function(AMPS, mu0, gamma, np.inf), closed, rtol=1e-8
+    )
+    np.testing.assert_allclose(
+        Rayleigh.describing_function(AMPS, mu0=mu0, gamma=gamma, c_sat=1e6), closed, rtol=1e-5
+    )
+    mixed = Rayleigh.describing_function(
+        AMPS, mu0=mu0, gamma=gamma, c_sat=np.array([[np.inf], [0.01]])
+    )
     np.testing.assert_array_equal(mixed[0], closed)
     assert np.all(np.abs(mixed[1]) < np.abs(closed))
 
@@ -175,12 +207,17 @@ def test_rayleigh_broadcasts_and_batches():
     assert batch.shape == (3, AMPS.size)
     for row, t in zip(batch, theta):
         np.testing.assert_allclose(row, Rayleigh.evaluate(AMPS, f, t), rtol=1e-14)
-    assert Rayleigh.describing_function(AMPS, np.zeros((2, 1)), mu0=1.0, gamma=1.0).shape == (2, AMPS.size)
+    assert Rayleigh.describing_function(AMPS, np.zeros((2, 1)), mu0=1.0, gamma=1.0).shape == (
+        2,
+        AMPS.size,
+    )
     assert Rayleigh.describing_function(-AMPS, mu0=1.0, gamma=1.0) == pytest.approx(
-        Rayleigh.describing_function(AMPS, mu0=1.0, gamma=1.0))
+        Rayleigh.describing_function(AMPS, mu0=1.0, gamma=1.0)
+    )
 
 
 # --- frequency-dependent coercive force ----------------------------------------------------
+
 
 @pytest.mark.parametrize("frequency", [3.0, 10.0, 50.0])
 def test_frequency_hc_matches_referee(frequency):
@@ -190,12 +227,20 @@ def test_frequency_hc_matches_referee(frequency):
     ref = FrequencyHc.numerical_describing_function(A, frequency, **theta)
     # kinks of the piecewise-linear loop: the referee is good to ~3e-10 of the slope k
     np.testing.assert_allclose(N, ref, rtol=0, atol=1e-8 * theta["k"])
-    assert np.any(N == 0) and np.any(np.abs(N) > 0.01 * theta["k"])  # dead zone and open loop both tested
+    assert np.any(N == 0) and np.any(
+        np.abs(N) > 0.01 * theta["k"]
+    )  # dead zone and open loop both tested
 
 
 @settings(max_examples=15, deadline=None)
-@given(k=log_uniform(1.0, 1e4), c=log_uniform(1e-4, 10.0), m=st.floats(0.0, 0.95),
-       hc_a=st.floats(0.0, 2e-5), hc_b=st.floats(0.0, 4e-7), f=st.floats(1.0, 60.0))
+@given(
+    k=log_uniform(1.0, 1e4),
+    c=log_uniform(1e-4, 10.0),
+    m=st.floats(0.0, 0.95),
+    hc_a=st.floats(0.0, 2e-5),
+    hc_b=st.floats(0.0, 4e-7),
+    f=st.floats(1.0, 60.0),
+)
 def test_frequency_hc_matches_referee_random(k, c, m, hc_a, hc_b, f):
     theta = dict(k=k, c=c, m=m, hc_a=hc_a, hc_b=hc_b)
     A = np.logspace(-6, 0, 12)
@@ -210,12 +255,17 @@ def test_frequency_hc_is_constant_width_with_b_of_A_and_f():
     f = np.array([[2.0], [20.0], [60.0]])
     b = coercive_current(A, f, 0.2, 3e-6, 5e-8)
     np.testing.assert_allclose(b, 0.2 * A + 3e-6 * f + 5e-8 * f**2, rtol=1e-15)
-    np.testing.assert_array_equal(FrequencyHc.describing_function(A, f, **th),
-                                  ConstantWidth.describing_function(A, f, k=200.0, b=b, c=0.02))
+    np.testing.assert_array_equal(
+        FrequencyHc.describing_function(A, f, **th),
+        ConstantWidth.describing_function(A, f, k=200.0, b=b, c=0.02),
+    )
     # without the frequency terms it is the proportional-width law of eq 4.2
-    np.testing.assert_allclose(FrequencyHc.describing_function(A, f, **{**th, "hc_a": 0.0, "hc_b": 0.0}),
-                               ProportionalWidth.describing_function(A, f, k=200.0, c=0.02, m=0.2),
-                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        FrequencyHc.describing_function(A, f, **{**th, "hc_a": 0.0, "hc_b": 0.0}),
+        ProportionalWidth.describing_function(A, f, k=200.0, c=0.02, m=0.2),
+        rtol=1e-12,
+        atol=1e-12,
+    )
 
 
 def test_frequency_hc_widens_the_loop_with_frequency():
@@ -227,14 +277,19 @@ def test_frequency_hc_widens_the_loop_with_frequency():
     assert np.all(np.diff(np.abs(N)) < 0)
     # dead zone: A (1 - m) <= hc_a f + hc_b f^2
     edge = (2e-6 * 40 + 4e-8 * 1600) / 0.9
-    np.testing.assert_array_equal(FrequencyHc.describing_function(np.array([0.99, 1.01]) * edge, 40.0, **th) != 0,
-                                  [False, True])
+    np.testing.assert_array_equal(
+        FrequencyHc.describing_function(np.array([0.99, 1.01]) * edge, 40.0, **th) != 0,
+        [False, True],
+    )
 
 
 def test_registry_and_flags():
     names = model_names()
     assert "rayleigh" in names and "frequency_hc" in names
-    assert get_model("frequency_hc").frequency_dependent and not get_model("rayleigh").frequency_dependent
+    assert (
+        get_model("frequency_hc").frequency_dependent
+        and not get_model("rayleigh").frequency_dependent
+    )
     for cls in (Rayleigh, FrequencyHc):
         for p in cls.params:
             assert p.bounds[0] <= p.default <= p.bounds[1]

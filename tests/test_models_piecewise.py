@@ -4,17 +4,27 @@ The referee (:func:`fitdf.describing.numerical_describing_function`, 2**17 point
 period) integrates the loop drawn by ``ascending_branch``; its error on these
 piecewise-linear loops is ~2e-10 of the slope, so 1e-9 * k is a meaningful bound.
 """
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from fitdf.models.constant_width import ConstantWidth
-from fitdf.models.cubic_hc import (KS_MAGNET_STEEL, CubicHc, cubic_from_kennelly, cubic_width,
-                                   ks_magnet_steel_hc)
-from fitdf.models.proportional_width import (ProportionalWidth, ProportionalWidthFig42,
-                                             saturation_amplitude)
+from fitdf.models.cubic_hc import (
+    KS_MAGNET_STEEL,
+    CubicHc,
+    cubic_from_kennelly,
+    cubic_width,
+    ks_magnet_steel_hc,
+)
+from fitdf.models.proportional_width import (
+    ProportionalWidth,
+    ProportionalWidthFig42,
+    saturation_amplitude,
+)
 
 TOL = 1e-9  # absolute, in units of k
 FAST = settings(max_examples=8, deadline=None)
@@ -56,13 +66,17 @@ def loop_area(model, A, n=200_001, **theta):
 
 # ---------------------------------------------------------------- closed form == referee
 
-@pytest.mark.parametrize("k, b, c", [
-    (1.0, 1.0, 5.0),          # thesis graph scale
-    (2.0, 3.0, 1.0),          # c/k < b: b1 < 0, the rising side lies at x > 0
-    (1.0, 1.0, np.inf),       # Fig 2.4, never saturates
-    (100.0, 0.0, 5.0),        # no width: plain saturation
-    (300.0, 2e-5, 0.02),      # winding-chain units
-])
+
+@pytest.mark.parametrize(
+    "k, b, c",
+    [
+        (1.0, 1.0, 5.0),  # thesis graph scale
+        (2.0, 3.0, 1.0),  # c/k < b: b1 < 0, the rising side lies at x > 0
+        (1.0, 1.0, np.inf),  # Fig 2.4, never saturates
+        (100.0, 0.0, 5.0),  # no width: plain saturation
+        (300.0, 2e-5, 0.02),  # winding-chain units
+    ],
+)
 def test_constant_width_edge_grid(k, b, c):
     b2 = c / k + b
     pts = [np.geomspace(1e-3, 40, 25) * max(b, c / k if np.isfinite(c) else 1.0)]
@@ -74,8 +88,9 @@ def test_constant_width_edge_grid(k, b, c):
 
 
 @FAST
-@given(k=st.floats(0.1, 1e3), b=st.floats(0.0, 2.0), c_over_k=st.floats(0.05, 5.0),
-       inf_c=st.booleans())
+@given(
+    k=st.floats(0.1, 1e3), b=st.floats(0.0, 2.0), c_over_k=st.floats(0.05, 5.0), inf_c=st.booleans()
+)
 def test_constant_width_property(k, b, c_over_k, inf_c):
     c = np.inf if inf_c else c_over_k * k
     A = np.concatenate([np.linspace(0.01, 12.0, 36), around(b + c_over_k, (1e-6, 1e-2))])
@@ -97,8 +112,12 @@ def test_proportional_edge_grid(model, m):
 
 
 @FAST
-@given(k=st.floats(0.1, 1e3), c_over_k=st.floats(0.01, 10.0), m=st.floats(0.0, 0.999),
-       fig42=st.booleans())
+@given(
+    k=st.floats(0.1, 1e3),
+    c_over_k=st.floats(0.01, 10.0),
+    m=st.floats(0.0, 0.999),
+    fig42=st.booleans(),
+)
 def test_proportional_property(k, c_over_k, m, fig42):
     model = ProportionalWidthFig42 if fig42 else ProportionalWidth
     a_sat = c_over_k / (1 - m)
@@ -113,23 +132,32 @@ def test_cubic_ks_grid(c):
 
 
 @FAST
-@given(alpha=st.floats(0.01, 3.0), beta_rel=st.floats(0.0, 1.0), h0=st.floats(0.0, 1.0),
-       h1=st.floats(0.5, 4.0), tail=st.floats(0.0, 0.5), c=st.floats(0.1, 5.0))
+@given(
+    alpha=st.floats(0.01, 3.0),
+    beta_rel=st.floats(0.0, 1.0),
+    h0=st.floats(0.0, 1.0),
+    h1=st.floats(0.5, 4.0),
+    tail=st.floats(0.0, 0.5),
+    c=st.floats(0.1, 5.0),
+)
 def test_cubic_property(alpha, beta_rel, h0, h1, tail, c):
     beta = beta_rel * alpha / (3 * h1**2)  # up to a maximum of the cubic at h1
     A = np.concatenate([np.geomspace(0.02, 30.0, 34), around(h1, (1e-9,))])
-    assert_matches_referee(CubicHc, A, k=1.5, c=c, alpha=alpha, beta=beta, h0=h0, h1=h1,
-                           tail_slope=tail)
+    assert_matches_referee(
+        CubicHc, A, k=1.5, c=c, alpha=alpha, beta=beta, h0=h0, h1=h1, tail_slope=tail
+    )
 
 
 def test_cubic_reaches_cut_quadrilateral_regime():
     # alpha = 0.9 gives m > 0.5 with k b > c below saturation (the "cut" regime)
     theta = dict(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0)
-    A = np.linspace(1.2, 9.0, 30)   # c/(k m) = 1.11 < A < A_sat = 10
+    A = np.linspace(1.2, 9.0, 30)  # c/(k m) = 1.11 < A < A_sat = 10
     assert_matches_referee(CubicHc, A, **theta)
 
 
-@pytest.mark.parametrize("model", [ConstantWidth, ProportionalWidth, ProportionalWidthFig42, CubicHc])
+@pytest.mark.parametrize(
+    "model", [ConstantWidth, ProportionalWidth, ProportionalWidthFig42, CubicHc]
+)
 def test_defaults_in_winding_units_match_referee(model):
     A = np.geomspace(1e-6, 1e-2, 40)
     assert_matches_referee(model, A, **model.defaults())
@@ -137,15 +165,25 @@ def test_defaults_in_winding_units_match_referee(model):
 
 # ---------------------------------------------------------------- special cases of the thesis
 
+
 @pytest.mark.parametrize("model", PROPORTIONAL)
 def test_m0_is_plain_saturation(model):
     A = np.geomspace(0.1, 100.0, 50)
-    np.testing.assert_allclose(model.describing_function(A, k=2.0, c=5.0, m=0.0),
-                               saturation_df(A, 2.0, 5.0), rtol=0, atol=1e-14)
-    np.testing.assert_allclose(ConstantWidth.describing_function(A, k=2.0, b=0.0, c=5.0),
-                               saturation_df(A, 2.0, 5.0), rtol=0, atol=1e-14)
-    dead = CubicHc.describing_function(A, k=2.0, c=5.0, alpha=0.5, beta=0.0, h0=1e3, h1=1e4,
-                                       tail_slope=0.1)
+    np.testing.assert_allclose(
+        model.describing_function(A, k=2.0, c=5.0, m=0.0),
+        saturation_df(A, 2.0, 5.0),
+        rtol=0,
+        atol=1e-14,
+    )
+    np.testing.assert_allclose(
+        ConstantWidth.describing_function(A, k=2.0, b=0.0, c=5.0),
+        saturation_df(A, 2.0, 5.0),
+        rtol=0,
+        atol=1e-14,
+    )
+    dead = CubicHc.describing_function(
+        A, k=2.0, c=5.0, alpha=0.5, beta=0.0, h0=1e3, h1=1e4, tail_slope=0.1
+    )
     np.testing.assert_allclose(dead, saturation_df(A, 2.0, 5.0), rtol=0, atol=1e-14)
 
 
@@ -156,9 +194,10 @@ def test_graph_4_1_m0_is_one_at_zero_degrees(model):
 
 
 def test_b0_is_linear_gain_below_saturation():
-    A = np.linspace(0.0, 2.5, 11)      # c/k = 2.5
-    np.testing.assert_allclose(ConstantWidth.describing_function(A, k=2.0, b=0.0, c=5.0), 2.0,
-                               rtol=0, atol=1e-14)
+    A = np.linspace(0.0, 2.5, 11)  # c/k = 2.5
+    np.testing.assert_allclose(
+        ConstantWidth.describing_function(A, k=2.0, b=0.0, c=5.0), 2.0, rtol=0, atol=1e-14
+    )
 
 
 def test_printed_eqs_4_4_4_5_below_saturation():
@@ -173,8 +212,9 @@ def test_printed_eqs_4_4_4_5_below_saturation():
 def test_fig42_below_saturation_is_printed_point():
     m = np.linspace(0.0, 1.0, 21)[:, None]
     N = ProportionalWidthFig42.describing_function(np.array([0.1, 1.0, 9.0]), k=3.0, c=np.inf, m=m)
-    np.testing.assert_allclose(N, np.broadcast_to(3.0 * ((1 - m) - 2j * m / np.pi), N.shape),
-                               rtol=0, atol=1e-14)
+    np.testing.assert_allclose(
+        N, np.broadcast_to(3.0 * ((1 - m) - 2j * m / np.pi), N.shape), rtol=0, atol=1e-14
+    )
 
 
 @pytest.mark.parametrize("model", PROPORTIONAL)
@@ -197,11 +237,16 @@ def test_fig42_equals_first_model_at_m_half():
     # at m = 0.5 the segment O-S is flat, and saturation starts exactly where k b = c,
     # so the two loops are the same at every amplitude
     A = np.geomspace(0.1, 200.0, 60)
-    np.testing.assert_allclose(ProportionalWidthFig42.describing_function(A, k=1.0, c=5.0, m=0.5),
-                               ProportionalWidth.describing_function(A, k=1.0, c=5.0, m=0.5),
-                               rtol=0, atol=1e-14)
-    assert not np.allclose(ProportionalWidthFig42.describing_function(A, k=1.0, c=5.0, m=0.3),
-                           ProportionalWidth.describing_function(A, k=1.0, c=5.0, m=0.3))
+    np.testing.assert_allclose(
+        ProportionalWidthFig42.describing_function(A, k=1.0, c=5.0, m=0.5),
+        ProportionalWidth.describing_function(A, k=1.0, c=5.0, m=0.5),
+        rtol=0,
+        atol=1e-14,
+    )
+    assert not np.allclose(
+        ProportionalWidthFig42.describing_function(A, k=1.0, c=5.0, m=0.3),
+        ProportionalWidth.describing_function(A, k=1.0, c=5.0, m=0.3),
+    )
 
 
 def test_fig42_eqs_4_6_4_7_valid_only_while_kb_le_c():
@@ -220,17 +265,22 @@ def test_fig42_eqs_4_6_4_7_valid_only_while_kb_le_c():
 def test_constant_width_accepts_array_b():
     A = np.geomspace(0.1, 50.0, 30)
     m = np.array([[0.1], [0.4], [0.8]])
-    np.testing.assert_allclose(ConstantWidth.describing_function(A, k=1.5, b=m * A, c=5.0),
-                               ProportionalWidth.describing_function(A, k=1.5, c=5.0, m=m),
-                               rtol=0, atol=1e-14)
+    np.testing.assert_allclose(
+        ConstantWidth.describing_function(A, k=1.5, b=m * A, c=5.0),
+        ProportionalWidth.describing_function(A, k=1.5, c=5.0, m=m),
+        rtol=0,
+        atol=1e-14,
+    )
 
 
 def test_cubic_with_linear_law_is_proportional_fig42():
     A = np.geomspace(0.1, 100.0, 40)
-    N = CubicHc.describing_function(A, k=1.0, c=5.0, alpha=0.3, beta=0.0, h0=0.0, h1=1e6,
-                                    tail_slope=0.0)
-    np.testing.assert_allclose(N, ProportionalWidthFig42.describing_function(A, k=1.0, c=5.0, m=0.3),
-                               rtol=0, atol=1e-14)
+    N = CubicHc.describing_function(
+        A, k=1.0, c=5.0, alpha=0.3, beta=0.0, h0=0.0, h1=1e6, tail_slope=0.0
+    )
+    np.testing.assert_allclose(
+        N, ProportionalWidthFig42.describing_function(A, k=1.0, c=5.0, m=0.3), rtol=0, atol=1e-14
+    )
 
 
 # ---------------------------------------------------------------- shapes and batches
@@ -251,8 +301,9 @@ def test_batch_equals_loop(model, theta):
     A = np.geomspace(0.05, 40.0, 25)
     N = model.evaluate(A, np.zeros_like(A), batch)
     assert N.shape == (7, 25)
-    looped = np.array([model.describing_function(A, 0.0, **dict(zip(model.param_names(), row)))
-                       for row in batch])
+    looped = np.array(
+        [model.describing_function(A, 0.0, **dict(zip(model.param_names(), row))) for row in batch]
+    )
     np.testing.assert_allclose(N, looped, rtol=1e-14, atol=0)
     # a nested batch (walkers x chains) broadcasts the same way
     assert model.evaluate(A, np.zeros_like(A), batch.reshape(7, 1, -1)).shape == (7, 1, 25)
@@ -263,14 +314,17 @@ def test_batch_equals_loop(model, theta):
 # ---------------------------------------------------------------- continuity, lag, loop area
 
 BOUNDARIES = [
-    (ConstantWidth, dict(k=2.0, b=0.5, c=3.0), [0.5, 2.0]),            # A = b, A = b2
-    (ConstantWidth, dict(k=2.0, b=3.0, c=1.0), [3.0, 3.5]),            # b1 < 0
-    (ProportionalWidth, dict(k=2.0, c=3.0, m=0.3), [1.5 / 0.7]),        # A_sat
-    (ProportionalWidthFig42, dict(k=2.0, c=3.0, m=0.3), [1.5 / 0.7, 1.5 / 0.3]),   # lens, clipped
-    (ProportionalWidthFig42, dict(k=2.0, c=3.0, m=0.7), [1.5 / 0.7, 1.5 / 0.3]),   # cut, clipped
+    (ConstantWidth, dict(k=2.0, b=0.5, c=3.0), [0.5, 2.0]),  # A = b, A = b2
+    (ConstantWidth, dict(k=2.0, b=3.0, c=1.0), [3.0, 3.5]),  # b1 < 0
+    (ProportionalWidth, dict(k=2.0, c=3.0, m=0.3), [1.5 / 0.7]),  # A_sat
+    (ProportionalWidthFig42, dict(k=2.0, c=3.0, m=0.3), [1.5 / 0.7, 1.5 / 0.3]),  # lens, clipped
+    (ProportionalWidthFig42, dict(k=2.0, c=3.0, m=0.7), [1.5 / 0.7, 1.5 / 0.3]),  # cut, clipped
     (CubicHc, dict(k=1.0, c=3.2375, **KS_MAGNET_STEEL), [0.5, 0.501563, 5.0]),
-    (CubicHc, dict(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0),
-     [1.0 / 0.9, 10.0]),
+    (
+        CubicHc,
+        dict(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0),
+        [1.0 / 0.9, 10.0],
+    ),
 ]
 
 
@@ -286,37 +340,44 @@ def test_continuous_at_regime_boundaries(model, theta, edges):
     assert np.abs(np.diff(N)).max() <= 0.01 * theta["k"]
 
 
-@pytest.mark.parametrize("model, theta", CASES + [
-    (ConstantWidth, dict(k=2.0, b=3.0, c=1.0)),
-    (CubicHc, dict(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0)),
-])
+@pytest.mark.parametrize(
+    "model, theta",
+    CASES
+    + [
+        (ConstantWidth, dict(k=2.0, b=3.0, c=1.0)),
+        (CubicHc, dict(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0)),
+    ],
+)
 def test_lag_and_loop_area(model, theta):
     A = np.array([0.3, 1.0, 1.7, 2.5, 4.0, 6.0, 11.0, 30.0])
     N = model.describing_function(A, **theta)
     assert np.all(N.imag <= 0.0)
     area = loop_area(model, A, **theta)
-    assert area.max() > 0.1 * theta["k"]   # the loops here have a real width
+    assert area.max() > 0.1 * theta["k"]  # the loops here have a real width
     err = np.abs(-np.pi * A**2 * N.imag - area) / (theta["k"] * A**2)
     assert err.max() <= 1e-8
 
 
 # ---------------------------------------------------------------- width laws of section IV.2
 
+
 def test_printed_eq_4_11_values_and_continuous_version():
     assert ks_magnet_steel_hc(5.0) == pytest.approx(1.7625, abs=1e-15)
     assert ks_magnet_steel_hc(5.0 + 1e-12) == pytest.approx(1.8, abs=1e-12)
-    assert ks_magnet_steel_hc(0.5 + 1e-6) < 0   # printed cubic dips below zero
+    assert ks_magnet_steel_hc(0.5 + 1e-6) < 0  # printed cubic dips below zero
     w = cubic_width(np.array([0.4, 0.5, 0.5 + 1e-6, 5.0, 5.0 + 1e-9, 10.0]), **KS_MAGNET_STEEL)
     np.testing.assert_allclose(w, [0, 0, 0, 1.7625, 1.7625, 1.9625], rtol=0, atol=1e-9)
     hm = np.linspace(0.6, 4.9, 50)
-    np.testing.assert_allclose(cubic_width(hm, **KS_MAGNET_STEEL), ks_magnet_steel_hc(hm), atol=1e-15)
+    np.testing.assert_allclose(
+        cubic_width(hm, **KS_MAGNET_STEEL), ks_magnet_steel_hc(hm), atol=1e-15
+    )
 
 
 @pytest.mark.parametrize("a, inv_b", [(0.3, 0.037), (0.25, 0.73), (0.26, 4.1), (0.4, 220.0)])
 def test_cubic_from_kennelly(a, inv_b):
     """Table 3.1 constants: eq 4.10 matches the Kennelly law at hm_max, eq 4.9 needs H^2."""
     b = 1.0 / inv_b
-    hm_max = 19 * a * inv_b               # H_c = 0.95 H_c,inf there
+    hm_max = 19 * a * inv_b  # H_c = 0.95 H_c,inf there
     alpha, beta = cubic_from_kennelly(a, b, hm_max)
     kennelly = lambda h: h / (a + b * h)  # noqa: E731  (eq 3.12 solved for H_c)
     assert alpha * hm_max - beta * hm_max**3 == pytest.approx(kennelly(hm_max), rel=1e-12)

@@ -1,4 +1,5 @@
 """Fit figures (fitdf.plots.fits): each returns a Figure with the expected, labelled, non-empty axes."""
+
 from __future__ import annotations
 
 import io
@@ -11,13 +12,21 @@ from matplotlib.figure import Figure
 import fitdf
 from fitdf.inference.api import resolve_data
 from fitdf.inference.mcmc import fit_mcmc
-from fitdf.plots import plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals
+from fitdf.plots import (
+    plot_corner,
+    plot_critical_loci,
+    plot_cross_impedance,
+    plot_fit,
+    plot_residuals,
+)
 
 
 @pytest.fixture(scope="module")
 def b1():
     """Two quick least-squares fits of Table B.1 (0 ohm; 3, 6, 10, 20 c/s), best first."""
-    fits = [fitdf.fit("B.1", m, seed=0, n_starts=2) for m in ("proportional_width", "constant_width")]
+    fits = [
+        fitdf.fit("B.1", m, seed=0, n_starts=2) for m in ("proportional_width", "constant_width")
+    ]
     return sorted(fits, key=lambda r: r.metrics["rms_complex"])
 
 
@@ -45,15 +54,22 @@ def _png(fig):
 def test_plot_fit_panels_labels_and_curves(b1):
     fig = plot_fit(b1)
     assert isinstance(fig, Figure)
-    assert len(fig.axes) == 2 * 4                       # magnitude + phase rows, four frequencies
+    assert len(fig.axes) == 2 * 4  # magnitude + phase rows, four frequencies
     mag_row, phase_row = fig.axes[:4], fig.axes[4:]
-    assert mag_row[0].get_ylabel() == "|DF| (V/V)" and phase_row[0].get_ylabel() == "phase lead (deg)"
+    assert (
+        mag_row[0].get_ylabel() == "|DF| (V/V)" and phase_row[0].get_ylabel() == "phase lead (deg)"
+    )
     assert all(ax.get_xlabel() == "input amplitude (V)" for ax in phase_row)
-    assert [ax.get_title() for ax in mag_row] == ["f = 3 c/s", "f = 6 c/s", "f = 10 c/s", "f = 20 c/s"]
+    assert [ax.get_title() for ax in mag_row] == [
+        "f = 3 c/s",
+        "f = 6 c/s",
+        "f = 10 c/s",
+        "f = 20 c/s",
+    ]
     for ax in fig.axes:
         lines = _data_lines(ax)
-        assert len(lines) == 3                          # two model curves + measured points
-        assert max(len(ln.get_xdata()) for ln in lines) > 50   # smooth curves, not just the rows
+        assert len(lines) == 3  # two model curves + measured points
+        assert max(len(ln.get_xdata()) for ln in lines) > 50  # smooth curves, not just the rows
     assert "Permalloy" in fig.get_suptitle() and "B.1" in fig.get_suptitle()
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert "proportional_width" in labels and "constant_width" in labels
@@ -71,9 +87,9 @@ def test_plot_fit_band_and_frequency_subset(b1, posterior):
 
 def test_plot_fit_joint_fit_has_a_row_pair_per_impedance(joint):
     fig = plot_fit(joint)
-    assert len(fig.axes) == 4 * 4                       # 2 impedances x (magnitude, phase), 4 frequencies
+    assert len(fig.axes) == 4 * 4  # 2 impedances x (magnitude, phase), 4 frequencies
     blank = [ax for ax in fig.axes if not ax.axison]
-    assert len(blank) == 2                              # 20 c/s was not measured at 600 ohm
+    assert len(blank) == 2  # 20 c/s was not measured at 600 ohm
     assert "600 ohm" in fig.axes[8].get_ylabel() and "0 ohm" in fig.axes[0].get_ylabel()
     assert "0 and 600 ohm" in fig.get_suptitle()
 
@@ -81,8 +97,15 @@ def test_plot_fit_joint_fit_has_a_row_pair_per_impedance(joint):
 def test_plot_fit_draws_excluded_rows(b1):
     import pandas as pd
 
-    excluded = pd.DataFrame({"input_v": [0.3], "frequency_hz": [3.0], "source_impedance_ohm": [0.0],
-                             "df_reported": [0.5], "phase_lead_deg": [30.0]})
+    excluded = pd.DataFrame(
+        {
+            "input_v": [0.3],
+            "frequency_hz": [3.0],
+            "source_impedance_ohm": [0.0],
+            "df_reported": [0.5],
+            "phase_lead_deg": [30.0],
+        }
+    )
     fig = plot_fit(b1[0], excluded=excluded)
     assert any(ln.get_marker() == "x" for ln in fig.axes[0].get_lines())
     assert any("excluded" in t.get_text() for t in fig.legends[0].get_texts())
@@ -94,10 +117,12 @@ def test_plot_fit_of_one_result_and_frequency(b1):
 
 def test_critical_loci_in_the_second_quadrant(joint, b1):
     fig = plot_critical_loci(joint)
-    assert len(fig.axes) == 2                           # one Nyquist plane per source impedance
+    assert len(fig.axes) == 2  # one Nyquist plane per source impedance
     for ax in fig.axes:
         assert ax.get_xlabel() == "Re(-1/DF)" and ax.get_ylabel() == "Im(-1/DF)"
-        points = [ln for ln in ax.get_lines() if ln.get_marker() == "o" and ln.get_linestyle() == "None"]
+        points = [
+            ln for ln in ax.get_lines() if ln.get_marker() == "o" and ln.get_linestyle() == "None"
+        ]
         assert points
         x = np.concatenate([ln.get_xdata() for ln in points])
         y = np.concatenate([ln.get_ydata() for ln in points])
@@ -120,7 +145,7 @@ def test_critical_loci_into_given_axes(b1, joint):
 
 def test_plot_residuals(b1):
     fig = plot_residuals(b1, top=3)
-    assert len(fig.axes) == 2 * 2                       # two models given
+    assert len(fig.axes) == 2 * 2  # two models given
     assert fig.axes[0].get_ylabel().startswith("|DF| residual")
     assert fig.axes[2].get_ylabel().startswith("phase-lead residual")
     for ax in fig.axes:
@@ -142,12 +167,14 @@ def test_plot_corner(posterior, b1):
 
 
 def test_plot_cross_impedance(b1):
-    fig = plot_cross_impedance(b1, resolve_data("B.3"), calibration_gains={"proportional_width": 1.0})
+    fig = plot_cross_impedance(
+        b1, resolve_data("B.3"), calibration_gains={"proportional_width": 1.0}
+    )
     assert len(fig.axes) == 4 * 4
     bottom_mag = fig.axes[8]
     assert "600 ohm" in bottom_mag.get_ylabel()
     dashed = [ln for ln in bottom_mag.get_lines() if ln.get_linestyle() == "--"]
-    assert len(dashed) == 2                             # one prediction per model
+    assert len(dashed) == 2  # one prediction per model
     assert "predicting 600 ohm" in fig.get_suptitle()
 
 

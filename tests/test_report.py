@@ -1,14 +1,12 @@
 """The generated report: files, self-containedness, results.json, atomic writes, determinism."""
+
 from __future__ import annotations
 
 import json
 import re
-import sys
-import types
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
 
 import fitdf.report.render as render
@@ -19,23 +17,46 @@ REPO = Path(__file__).resolve().parents[1]
 COMMITTED = REPO / "reports" / "results.json"
 
 #: A report small enough for unit tests; every section is still produced.
-TINY = ReportSettings(models=("proportional_width",), blocks=("B.1", "permalloy-joint"), n_starts=2,
-                      mcmc_top=1, n_steps=60, n_walkers=16, cv_top=1, cv_starts=1, cross_top=1,
-                      cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),), workers=1)
+TINY = ReportSettings(
+    models=("proportional_width",),
+    blocks=("B.1", "permalloy-joint"),
+    n_starts=2,
+    mcmc_top=1,
+    n_steps=60,
+    n_walkers=16,
+    cv_top=1,
+    cv_starts=1,
+    cross_top=1,
+    cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),),
+    workers=1,
+)
 #: Smaller still: fits of one block, no MCMC (atomic-write tests).
-MINI = ReportSettings(models=("proportional_width",), blocks=("B.1",), n_starts=1, mcmc_top=0, cv_top=0,
-                      cross=(), limit_cycles=False, workers=1)
+MINI = ReportSettings(
+    models=("proportional_width",),
+    blocks=("B.1",),
+    n_starts=1,
+    mcmc_top=0,
+    cv_top=0,
+    cross=(),
+    limit_cycles=False,
+    workers=1,
+)
 
 
-_PNG = bytes.fromhex("89504e470d0a1a0a0000000d4948445200000001000000010806000000"
-                     "1f15c4890000000d49444154789c6360000002000100e5270ad60000000049454e44ae426082")
+_PNG = bytes.fromhex(
+    "89504e470d0a1a0a0000000d4948445200000001000000010806000000"
+    "1f15c4890000000d49444154789c6360000002000100e5270ad60000000049454e44ae426082"
+)
 
 
 @pytest.fixture
 def stub_figures(monkeypatch):
     """Replace the (slow) figures by 1-pixel PNGs: for tests about the numbers and the file handling."""
+
     def make_figures(kind, payload, figdir):
-        names = {"thesis": ["thesis_4_1"], "cross": ["cross"]}.get(kind, ["fit", "loci", "residuals", "corner"])
+        names = {"thesis": ["thesis_4_1"], "cross": ["cross"]}.get(
+            kind, ["fit", "loci", "residuals", "corner"]
+        )
         paths = {}
         for n in names:
             name = f"{payload['block'].key if kind == 'block' else kind}_{n}.png"
@@ -55,7 +76,7 @@ def _strip_timing(results: dict) -> dict:
 @pytest.fixture(scope="module")
 def tiny_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("rep") / "report"
-    generate_report(out, seed=0, progress=False, settings=TINY)   # every section, the real modules
+    generate_report(out, seed=0, progress=False, settings=TINY)  # every section, the real modules
     return out
 
 
@@ -67,7 +88,9 @@ def tiny_results(tiny_report):
 def test_report_writes_every_file(tiny_report, tiny_results):
     for name in ("README.md", "index.html", "results.json"):
         assert (tiny_report / name).stat().st_size > 1000
-    figures = {p.relative_to(tiny_report).as_posix() for p in (tiny_report / "figures").rglob("*.png")}
+    figures = {
+        p.relative_to(tiny_report).as_posix() for p in (tiny_report / "figures").rglob("*.png")
+    }
     for key in TINY.blocks:
         for kind in ("fit", "loci", "residuals", "corner"):
             assert tiny_results["blocks"][key]["figures"][kind] in figures
@@ -75,7 +98,11 @@ def test_report_writes_every_file(tiny_report, tiny_results):
     assert len([f for f in figures if f.startswith("figures/thesis/")]) == 7
     # Markdown links every figure relatively, and only existing ones
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", (tiny_report / "README.md").read_text())
-    assert links and set(links) <= figures and not any(link.startswith(("/", "http")) for link in links)
+    assert (
+        links
+        and set(links) <= figures
+        and not any(link.startswith(("/", "http")) for link in links)
+    )
     assert not list(tiny_report.parent.glob(".report.*")), "temporary directories left behind"
 
 
@@ -94,24 +121,48 @@ def test_html_is_self_contained(tiny_report):
 
 def test_results_json_holds_rankings_and_settings(tiny_results):
     r = tiny_results
-    assert r["seed"] == 0 and r["fitdf_version"] and r["settings"]["models"] == ["proportional_width"]
+    assert (
+        r["seed"] == 0 and r["fitdf_version"] and r["settings"]["models"] == ["proportional_width"]
+    )
     assert r["timing"]["total_s"] > 0
     for key in TINY.blocks:
         rec = r["blocks"][key]
         assert rec["order_lsq"] == ["proportional_width"]
         row = rec["ranking_lsq"][0]
-        for metric in ("rms_complex", "rms_magnitude", "rms_phase_deg", "redchi", "aicc", "bic", "cv_rms_complex"):
+        for metric in (
+            "rms_complex",
+            "rms_magnitude",
+            "rms_phase_deg",
+            "redchi",
+            "aicc",
+            "bic",
+            "cv_rms_complex",
+        ):
             assert isinstance(row[metric], float), (key, metric)
         assert rec["ranking_mcmc"][0]["looic"] is not None
         diag = rec["fits_mcmc"]["proportional_width"]["diagnostics"]
-        assert {"tau_max", "steps_over_tau", "rhat_max", "ess_bulk_min", "acceptance_mean", "converged"} <= set(diag)
+        assert {
+            "tau_max",
+            "steps_over_tau",
+            "rhat_max",
+            "ess_bulk_min",
+            "acceptance_mean",
+            "converged",
+        } <= set(diag)
         assert rec["fits_lsq"]["proportional_width"]["parameters"]
-        assert rec["data_summary"]["rows_used"] == len(rec["fits_lsq"]["proportional_width"]["rows"]["input_v"])
+        assert rec["data_summary"]["rows_used"] == len(
+            rec["fits_lsq"]["proportional_width"]["rows"]["input_v"]
+        )
     assert r["blocks"]["permalloy-joint"]["source_impedance_ohm"] == [0.0, 600.0]
     assert r["cross_impedance"][0]["rows"][0]["predict_rms_complex"] > 0
-    lc = r["limit_cycles"]                      # the real comparison (fitdf.thesis), on the tiny settings
+    lc = r["limit_cycles"]  # the real comparison (fitdf.thesis), on the tiny settings
     assert lc["available"] and "error" not in lc and lc["figure"]
-    assert len(lc["rows"]) == 38 and {row["table"] for row in lc["rows"]} == {"B.1", "B.2", "B.3", "B.5"}
+    assert len(lc["rows"]) == 38 and {row["table"] for row in lc["rows"]} == {
+        "B.1",
+        "B.2",
+        "B.3",
+        "B.5",
+    }
     assert 0.1 < lc["attrs"]["alpha"] < 100
     assert r["findings"] and any("fits best" in f for f in r["findings"])
     assert r["audit"]["tables"] and r["audit"]["findings"]
@@ -119,9 +170,17 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
 
 def test_markdown_sections(tiny_report, tiny_results):
     md = (tiny_report / "README.md").read_text()
-    for heading in ("## Findings", "## Summary", "### Ranking", "### Parameters", "### MCMC diagnostics",
-                    "## Cross-impedance prediction", "## Limit cycles (Tables 5.1, 5.2)",
-                    "## Audit of the printed tables (Appendix B)", "## The thesis's computed curves (Graphs 4.1-4.7)"):
+    for heading in (
+        "## Findings",
+        "## Summary",
+        "### Ranking",
+        "### Parameters",
+        "### MCMC diagnostics",
+        "## Cross-impedance prediction",
+        "## Limit cycles (Tables 5.1, 5.2)",
+        "## Audit of the printed tables (Appendix B)",
+        "## The thesis's computed curves (Graphs 4.1-4.7)",
+    ):
         assert heading in md, heading
     assert f"seed {tiny_results['seed']}" in md and "run time" in md
     # every table row has as many cells as its header
@@ -144,7 +203,11 @@ def test_limit_cycle_section_switched_off_or_failing(monkeypatch, tmp_path):
 
     monkeypatch.setattr(sections, "thesis_limit_cycle_comparison", boom)
     rec = sections.limit_cycle_section(0, ["constant_width"], 1, tmp_path)
-    assert rec == {"available": True, "error": "RuntimeError: no convergence", "models_offered": ["constant_width"]}
+    assert rec == {
+        "available": True,
+        "error": "RuntimeError: no convergence",
+        "models_offered": ["constant_width"],
+    }
 
 
 def test_failed_run_leaves_the_old_report_intact(tmp_path, monkeypatch, stub_figures):
@@ -158,15 +221,17 @@ def test_failed_run_leaves_the_old_report_intact(tmp_path, monkeypatch, stub_fig
         raise RuntimeError("disk full")
 
     real_render_html = render.render_html
-    monkeypatch.setattr(render, "render_html", boom)    # fails after the fits, figures and results.json
+    monkeypatch.setattr(
+        render, "render_html", boom
+    )  # fails after the fits, figures and results.json
     with pytest.raises(RuntimeError, match="disk full"):
         generate_report(out, progress=False, settings=MINI)
     assert (out / "README.md").read_text() == "old report\n"
     assert sorted(p.name for p in out.rglob("*")) == ["README.md", "figures", "old.png"]
-    assert [p.name for p in tmp_path.iterdir()] == ["reports"]      # no temporary directory left
+    assert [p.name for p in tmp_path.iterdir()] == ["reports"]  # no temporary directory left
 
     monkeypatch.setattr(render, "render_html", real_render_html)
-    generate_report(out, progress=False, settings=MINI)              # a good run replaces it whole
+    generate_report(out, progress=False, settings=MINI)  # a good run replaces it whole
     assert not (out / "figures" / "old.png").exists()
     assert "fitdf comparison report" in (out / "README.md").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["reports"]
@@ -194,13 +259,26 @@ def test_interrupted_swap_restores_the_old_report(tmp_path, monkeypatch):
 
 
 def test_same_seed_same_numbers(tmp_path, stub_figures):
-    settings = ReportSettings(models=("proportional_width",), blocks=("B.1",), n_starts=2, mcmc_top=1, n_steps=50,
-                              n_walkers=16, cv_top=1, cv_starts=1, cross=(), limit_cycles=False, workers=1)
+    settings = ReportSettings(
+        models=("proportional_width",),
+        blocks=("B.1",),
+        n_starts=2,
+        mcmc_top=1,
+        n_steps=50,
+        n_walkers=16,
+        cv_top=1,
+        cv_starts=1,
+        cross=(),
+        limit_cycles=False,
+        workers=1,
+    )
     a = generate_report(tmp_path / "a", seed=3, progress=False, settings=settings)
     b = generate_report(tmp_path / "b", seed=3, progress=False, settings=settings)
     ra, rb = (json.loads((p / "results.json").read_text()) for p in (a, b))
     assert _strip_timing(ra) == _strip_timing(rb)
-    assert (a / "README.md").read_text().split("## Contents")[1] == (b / "README.md").read_text().split("## Contents")[1]
+    assert (a / "README.md").read_text().split("## Contents")[1] == (
+        b / "README.md"
+    ).read_text().split("## Contents")[1]
 
 
 def test_quick_settings_keep_the_ranking_configuration():
@@ -218,7 +296,9 @@ def test_pool_gives_the_serial_numbers(tmp_path):
 
     settings = replace(TINY, blocks=("B.1", "B.3"), limit_cycles=False)
     serial = generate_report(tmp_path / "serial", progress=False, settings=settings)
-    pooled = generate_report(tmp_path / "pooled", progress=False, settings=replace(settings, workers=2))
+    pooled = generate_report(
+        tmp_path / "pooled", progress=False, settings=replace(settings, workers=2)
+    )
     ra, rb = (json.loads((p / "results.json").read_text()) for p in (serial, pooled))
     assert _strip_timing(ra) == _strip_timing(rb)
 
@@ -251,14 +331,23 @@ def test_quick_run_reproduces_committed_rankings_of_two_tables(tmp_path):
     from dataclasses import replace
 
     committed = json.loads(COMMITTED.read_text())
-    settings = replace(ReportSettings.for_run(quick=True), blocks=("B.1", "B.4"), limit_cycles=False, cross=(),
-                       workers=2)
-    out = generate_report(tmp_path / "quick2", seed=committed["seed"], progress=False, settings=settings)
+    settings = replace(
+        ReportSettings.for_run(quick=True),
+        blocks=("B.1", "B.4"),
+        limit_cycles=False,
+        cross=(),
+        workers=2,
+    )
+    out = generate_report(
+        tmp_path / "quick2", seed=committed["seed"], progress=False, settings=settings
+    )
     fresh = json.loads((out / "results.json").read_text())
     assert set(fresh["blocks"]) == {"B.1", "B.4"}
     for key, rec in fresh["blocks"].items():
         rms = {row["model"]: row["rms_complex"] for row in rec["ranking_lsq"]}
         assert _orders_agree(rec["order_lsq"], committed["blocks"][key]["order_lsq"], rms), key
-        committed_rms = {row["model"]: row["rms_complex"] for row in committed["blocks"][key]["ranking_lsq"]}
+        committed_rms = {
+            row["model"]: row["rms_complex"] for row in committed["blocks"][key]["ranking_lsq"]
+        }
         for model, value in rms.items():  # same numbers, not just the same order
             assert value == pytest.approx(committed_rms[model], rel=1e-6), (key, model)

@@ -5,6 +5,7 @@ ranking tables and the figures as ``data:`` PNGs (each decodes as a valid PNG), 
 points outside the file, the browser logs no page errors, and the screenshots show
 content (kept in ``test-artifacts/`` for a human to look at).
 """
+
 from __future__ import annotations
 
 import base64
@@ -22,8 +23,16 @@ pytestmark = pytest.mark.browser
 REPO = Path(__file__).resolve().parents[1]
 REPORT = REPO / "reports" / "index.html"
 ARTIFACTS = REPO / "test-artifacts"
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 
 
 def _chromium():
@@ -35,19 +44,34 @@ def _chromium():
 
 
 CHROMIUM = _chromium()
-needs = pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium not installed (apt-get install chromium)")
-needs_report = pytest.mark.skipif(not REPORT.exists(), reason="reports/index.html not generated (run `fitdf report`)")
+needs = pytest.mark.skipif(
+    CHROMIUM is None, reason="headless Chromium not installed (apt-get install chromium)"
+)
+needs_report = pytest.mark.skipif(
+    not REPORT.exists(), reason="reports/index.html not generated (run `fitdf report`)"
+)
 
 
 def _run(tmp_path, *args, timeout=120):
-    cmd = [CHROMIUM, *FLAGS, f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0", *args]
+    cmd = [
+        CHROMIUM,
+        *FLAGS,
+        f"--user-data-dir={tmp_path / 'profile'}",
+        "--enable-logging=stderr",
+        "--v=0",
+        *args,
+    ]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
 
 
 def _page_errors(stderr: str) -> list[str]:
     """Console errors and failed loads of the page (the browser's own dbus/gpu chatter is not the page's)."""
-    return [ln for ln in stderr.splitlines()
-            if re.search(r"CONSOLE|Failed to load resource|Uncaught|net::ERR_", ln) and "ERR_INTERNET" not in ln]
+    return [
+        ln
+        for ln in stderr.splitlines()
+        if re.search(r"CONSOLE|Failed to load resource|Uncaught|net::ERR_", ln)
+        and "ERR_INTERNET" not in ln
+    ]
 
 
 @pytest.fixture(scope="module")
@@ -67,9 +91,9 @@ def test_dom_has_rankings_and_embedded_figures(dom):
     assert "fitdf comparison report" in dom
     tables = re.findall(r"<table>.*?</table>", dom, re.S)
     rankings = [t for t in tables if "<th>RMS complex</th>" in t and "<th>AICc</th>" in t]
-    assert len(rankings) >= 7                           # one least-squares ranking per block at least
+    assert len(rankings) >= 7  # one least-squares ranking per block at least
     srcs = re.findall(r'<img src="([^"]*)"', dom)
-    assert len(srcs) >= 7 * 3 + 7                       # fit, loci, residuals per block; thesis graphs
+    assert len(srcs) >= 7 * 3 + 7  # fit, loci, residuals per block; thesis graphs
     for src in srcs:
         assert src.startswith("data:image/png;base64,")
         png = base64.b64decode(src.split(",", 1)[1], validate=True)
@@ -92,7 +116,9 @@ def _screenshot(tmp_path, url: str, name: str, height: int) -> Path:
     ARTIFACTS.mkdir(exist_ok=True)
     path = ARTIFACTS / name
     path.unlink(missing_ok=True)
-    proc = _run(tmp_path, f"--screenshot={path}", f"--window-size=1280,{height}", "--hide-scrollbars", url)
+    proc = _run(
+        tmp_path, f"--screenshot={path}", f"--window-size=1280,{height}", "--hide-scrollbars", url
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert not _page_errors(proc.stderr), _page_errors(proc.stderr)
     assert path.exists() and path.stat().st_size > 20_000
@@ -108,9 +134,9 @@ def test_screenshots_show_the_report(tmp_path):
     pixels = image.imread(top)
     assert pixels.shape[:2] == (2000, 1280)
     ink = np.mean(np.any(pixels[..., :3] < 0.9, axis=-1))
-    assert ink > 0.02                                   # text and tables, not a blank page
+    assert ink > 0.02  # text and tables, not a blank page
     # A tall window reaches the first block's figures (headless screenshots ignore #anchors).
     tall = _screenshot(tmp_path, REPORT.as_uri(), "report_first_block.png", 6000)
     rgb = (image.imread(tall)[2000:, :, :3] * 255).astype(int)
     colours = np.unique(rgb.reshape(-1, 3)[::7], axis=0)
-    assert len(colours) > 200                           # figures (colour curves, bands) were rendered
+    assert len(colours) > 200  # figures (colour curves, bands) were rendered

@@ -1,4 +1,5 @@
 """Graphs 4.1-4.7 of the thesis: figures are built, carry data, and are written."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +7,7 @@ import pytest
 from matplotlib.figure import Figure
 
 from fitdf.plots import thesis
-from fitdf.plots.thesis import THESIS_GRAPHS, KS_SATURATION_C, save_thesis_graphs
+from fitdf.plots.thesis import KS_SATURATION_C, THESIS_GRAPHS, save_thesis_graphs
 
 EXPECTED_AXES = {"4.1": 2, "4.2": 2, "4.3": 1, "4.4": 2, "4.5": 3, "4.6": 1, "4.7": 2}
 
@@ -39,7 +40,7 @@ def test_graph_4_3_loci_start_at_minus_one_over_n_below_saturation():
     first = marks[0]  # m = 0: -1/N = -1/k
     assert first.get_xdata()[0] == pytest.approx(-1.0, abs=1e-12)
     assert first.get_ydata()[0] == pytest.approx(0.0, abs=1e-12)
-    assert len(ax.texts) >= 2 * len(thesis.M_CURVES) - 1   # direction arrows
+    assert len(ax.texts) >= 2 * len(thesis.M_CURVES) - 1  # direction arrows
 
 
 def test_graph_4_7_saturation_starts_at_a_5():

@@ -1,15 +1,23 @@
 """Closed-loop simulation against harmonic balance, and the core's loop operator in time."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from fitdf.errors import OptionError
-from fitdf.models import get_model
 from fitdf.inference.api import fit
 from fitdf.loop.check import time_domain_check
-from fitdf.loop.simulate import (CoreElement, RelayHysteresis, Saturation, measure_oscillation,
-                                 simulate_loop, simulated_describing_function, tabulated_describing_function)
+from fitdf.loop.simulate import (
+    CoreElement,
+    RelayHysteresis,
+    Saturation,
+    measure_oscillation,
+    simulate_loop,
+    simulated_describing_function,
+    tabulated_describing_function,
+)
+from fitdf.models import get_model
 from fitdf.thesis import THESIS_PLANT
 
 PLANT = "1/(s(s+1)(s+2))"
@@ -43,7 +51,9 @@ def test_saturation_loop_agrees_with_harmonic_balance():
 
 def test_relay_with_hysteresis_loop_agrees_with_harmonic_balance():
     """Square-wave output, so larger DF errors: amplitude +3..5 %, frequency -2..3 % (K = 1, 5)."""
-    out = time_domain_check(PLANT, RelayHysteresis(1.0, 0.1), [1.0, 5.0], amplitude_range=(0.1001, 100))
+    out = time_domain_check(
+        PLANT, RelayHysteresis(1.0, 0.1), [1.0, 5.0], amplitude_range=(0.1001, 100)
+    )
     assert out["oscillating"].all()
     assert (out["amplitude_error"].abs() < 0.07).all()
     assert (out["omega_error"].abs() < 0.04).all()
@@ -51,14 +61,20 @@ def test_relay_with_hysteresis_loop_agrees_with_harmonic_balance():
 
 def test_step_size_convergence():
     """Halving dt changes the measured cycle by well under a percent (mid-step input, ZOH plant)."""
-    coarse = time_domain_check(PLANT, Saturation(), [8.0], amplitude_range=(0.01, 100), steps_per_period=200)
-    fine = time_domain_check(PLANT, Saturation(), [8.0], amplitude_range=(0.01, 100), steps_per_period=400)
+    coarse = time_domain_check(
+        PLANT, Saturation(), [8.0], amplitude_range=(0.01, 100), steps_per_period=200
+    )
+    fine = time_domain_check(
+        PLANT, Saturation(), [8.0], amplitude_range=(0.01, 100), steps_per_period=400
+    )
     assert coarse["amplitude"].iloc[0] == pytest.approx(fine["amplitude"].iloc[0], rel=2e-3)
     assert coarse["omega"].iloc[0] == pytest.approx(fine["omega"].iloc[0], rel=2e-3)
 
 
 def test_batch_equals_separate_runs():
-    both = simulate_loop(PLANT, RelayHysteresis(), [1.0, 5.0], t_end=20.0, dt=0.01, initial_output=0.2)
+    both = simulate_loop(
+        PLANT, RelayHysteresis(), [1.0, 5.0], t_end=20.0, dt=0.01, initial_output=0.2
+    )
     one = simulate_loop(PLANT, RelayHysteresis(), [5.0], t_end=20.0, dt=0.01, initial_output=0.2)
     np.testing.assert_array_equal(both.error[1], one.error[0])
 
@@ -72,6 +88,7 @@ class _DeadZoneRelay:
 
             def step(self, v, t):
                 return np.where(v > 0.5, 1.0, np.where(v < -0.5, -1.0, 0.0))
+
         return Runner()
 
     def describing_function(self, A, w):
@@ -83,9 +100,11 @@ class _DeadZoneRelay:
 
 def test_unstable_cycle_separates_decay_from_oscillation():
     """K = 9: HB gives an unstable cycle at A = 0.52 and a stable one at 1.84 (test_limitcycle)."""
-    sim = simulate_loop(PLANT, _DeadZoneRelay(), [9.0, 9.0], t_end=120.0, dt=0.01, initial_output=[0.3, 1.0])
+    sim = simulate_loop(
+        PLANT, _DeadZoneRelay(), [9.0, 9.0], t_end=120.0, dt=0.01, initial_output=[0.3, 1.0]
+    )
     m = sim.measure()
-    assert not m["oscillating"].iloc[0]               # below the unstable cycle: dies out
+    assert not m["oscillating"].iloc[0]  # below the unstable cycle: dies out
     assert m["oscillating"].iloc[1]
     assert m["amplitude"].iloc[1] == pytest.approx(1.838, rel=0.06)
 
@@ -106,10 +125,16 @@ def test_winding_operator_reproduces_the_chain_under_current_drive(name, theta):
 
     model, R = get_model(name), 1e6
     el = CoreElement(model, theta, "winding", resistance=R, gain=1.0)
-    V = R * np.array([4e-4, 1.5e-3, 8e-3])      # current amplitudes below, at and above saturation
+    V = R * np.array([4e-4, 1.5e-3, 8e-3])  # current amplitudes below, at and above saturation
     sim = simulated_describing_function(el, V, 3.0, steps_per_period=400)
-    chain = get_chain("winding").predict(model, V, np.full(3, 3.0), np.zeros(3),
-                                         np.array([theta[p.name] for p in model.params]), np.array([R, 1.0]))
+    chain = get_chain("winding").predict(
+        model,
+        V,
+        np.full(3, 3.0),
+        np.zeros(3),
+        np.array([theta[p.name] for p in model.params]),
+        np.array([R, 1.0]),
+    )
     np.testing.assert_allclose(np.abs(sim), np.abs(chain), rtol=2e-3)
     np.testing.assert_allclose(np.angle(sim, deg=True), np.angle(chain, deg=True), atol=0.1)
 
@@ -121,9 +146,15 @@ def test_direct_operator_is_the_static_loop():
     el = CoreElement(model, PW, "direct", input_scale=100.0)
     V = np.array([0.5, 2.0, 5.0, 10.0])
     sim = simulated_describing_function(el, V, 3.0, steps_per_period=500)
-    ref = get_chain("direct").predict(model, V, np.full(4, 3.0), np.zeros(4),
-                                      np.array([PW[p.name] for p in model.params]), np.array([100.0]))
-    np.testing.assert_allclose(sim, ref, rtol=5e-4)   # sampling of the kinks at 500 steps per period
+    ref = get_chain("direct").predict(
+        model,
+        V,
+        np.full(4, 3.0),
+        np.zeros(4),
+        np.array([PW[p.name] for p in model.params]),
+        np.array([100.0]),
+    )
+    np.testing.assert_allclose(sim, ref, rtol=5e-4)  # sampling of the kinks at 500 steps per period
 
 
 def test_voltage_drive_differs_from_the_sinusoidal_current_chain_in_saturation():
@@ -135,10 +166,16 @@ def test_voltage_drive_differs_from_the_sinusoidal_current_chain_in_saturation()
     el = CoreElement(model, PW, "winding", resistance=R, gain=1.0)
     V = np.array([0.1, 3.0])
     sim = simulated_describing_function(el, V, 3.0, steps_per_period=400)
-    chain = get_chain("winding").predict(model, V, np.full(2, 3.0), np.zeros(2),
-                                         np.array([PW[p.name] for p in model.params]), np.array([R, 1.0]))
-    assert abs(sim[0] / chain[0] - 1) < 0.05                    # unsaturated: close (3 %)
-    assert np.angle(chain[1], deg=True) - np.angle(sim[1], deg=True) > 15.0   # saturated: far
+    chain = get_chain("winding").predict(
+        model,
+        V,
+        np.full(2, 3.0),
+        np.zeros(2),
+        np.array([PW[p.name] for p in model.params]),
+        np.array([R, 1.0]),
+    )
+    assert abs(sim[0] / chain[0] - 1) < 0.05  # unsaturated: close (3 %)
+    assert np.angle(chain[1], deg=True) - np.angle(sim[1], deg=True) > 15.0  # saturated: far
 
 
 def test_fitted_core_loop_against_harmonic_balance():
@@ -152,11 +189,21 @@ def test_fitted_core_loop_against_harmonic_balance():
     """
     res = fit("B.1", "proportional_width", seed=0, n_starts=1)
     el = CoreElement.from_fit(res, 0.0)
-    tab = tabulated_describing_function(el, (0.05, 8.0), (5.0, 40.0), n_amplitude=20, n_omega=6,
-                                        steps_per_period=300)
-    out = time_domain_check(THESIS_PLANT, el, [50.0, 170.0], nonlinearity=tab, amplitude_range=(0.05, 8.0),
-                            omega_range=(5.0, 40.0), time_scale=2.6, periods=30, initial_output=0.5)
+    tab = tabulated_describing_function(
+        el, (0.05, 8.0), (5.0, 40.0), n_amplitude=20, n_omega=6, steps_per_period=300
+    )
+    out = time_domain_check(
+        THESIS_PLANT,
+        el,
+        [50.0, 170.0],
+        nonlinearity=tab,
+        amplitude_range=(0.05, 8.0),
+        omega_range=(5.0, 40.0),
+        time_scale=2.6,
+        periods=30,
+        initial_output=0.5,
+    )
     assert out["oscillating"].all()
     assert (out["amplitude_error"].abs() < 0.12).all()
     assert (out["omega_error"].abs() < 0.05).all()
-    assert out["probe_amplitude"].gt(0).all()        # the winding current was recorded
+    assert out["probe_amplitude"].gt(0).all()  # the winding current was recorded

@@ -4,6 +4,7 @@ A chain maps a core's complex inductance ``N(I, f)`` (a hysteresis law of
 :mod:`fitdf.models`) onto the describing function the thesis measured, voltage out over
 voltage in (section V.3). See :mod:`fitdf.chains` for the chains themselves.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -12,14 +13,12 @@ from typing import ClassVar
 import numpy as np
 
 from fitdf.errors import ModelError
-from fitdf.models import get_model
 from fitdf.params import Parametrized, ParamSpec
 
 __all__ = ["MeasurementChain", "OperatingPoint", "R_MIN", "as_points"]
 
 #: Smallest series resistance (ohm) the winding solver uses; ``R = 0`` is replaced by it.
 R_MIN = 1e-12
-
 
 
 @dataclass(frozen=True)
@@ -33,13 +32,11 @@ class OperatingPoint:
     df: np.ndarray
 
 
-
 def as_points(amplitude, frequency, source_impedance):
     V, f, Rs = (np.asarray(v, dtype=float) for v in (amplitude, frequency, source_impedance))
     if np.any(Rs < 0):
         raise ModelError("source_impedance must be >= 0 ohm")
     return V, f, Rs
-
 
 
 class MeasurementChain(Parametrized):
@@ -50,14 +47,32 @@ class MeasurementChain(Parametrized):
     params: ClassVar[tuple[ParamSpec, ...]] = ()
 
     @classmethod
-    def operating_point(cls, model, amplitude, frequency, source_impedance, model_theta,
-                        chain_theta, *, initial_current=None) -> OperatingPoint:
+    def operating_point(
+        cls,
+        model,
+        amplitude,
+        frequency,
+        source_impedance,
+        model_theta,
+        chain_theta,
+        *,
+        initial_current=None,
+    ) -> OperatingPoint:
         """Current, inductance and predicted DF at each point (one solve for all three)."""
         raise NotImplementedError
 
     @classmethod
-    def predict(cls, model, amplitude, frequency, source_impedance, model_theta, chain_theta, *,
-                initial_current=None):
+    def predict(
+        cls,
+        model,
+        amplitude,
+        frequency,
+        source_impedance,
+        model_theta,
+        chain_theta,
+        *,
+        initial_current=None,
+    ):
         """Complex measured DF.
 
         Parameters
@@ -80,12 +95,35 @@ class MeasurementChain(Parametrized):
         numpy.ndarray of complex
             Shape ``(n,)`` or ``(batch, n)``; ``angle > 0`` is a phase lead.
         """
-        return cls.operating_point(model, amplitude, frequency, source_impedance, model_theta,
-                                   chain_theta, initial_current=initial_current).df
+        return cls.operating_point(
+            model,
+            amplitude,
+            frequency,
+            source_impedance,
+            model_theta,
+            chain_theta,
+            initial_current=initial_current,
+        ).df
 
     @classmethod
-    def core_current(cls, model, amplitude, frequency, source_impedance, model_theta, chain_theta, *,
-                     initial_current=None):
+    def core_current(
+        cls,
+        model,
+        amplitude,
+        frequency,
+        source_impedance,
+        model_theta,
+        chain_theta,
+        *,
+        initial_current=None,
+    ):
         """Amplitude of the winding current (the model's input amplitude), same shape as :meth:`predict`."""
-        return cls.operating_point(model, amplitude, frequency, source_impedance, model_theta,
-                                   chain_theta, initial_current=initial_current).current
+        return cls.operating_point(
+            model,
+            amplitude,
+            frequency,
+            source_impedance,
+            model_theta,
+            chain_theta,
+            initial_current=initial_current,
+        ).current

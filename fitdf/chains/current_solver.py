@@ -1,7 +1,8 @@
 """The winding chain's current solver: ``I |R + Z(I)| = V`` for all data points at once."""
+
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -28,11 +29,23 @@ def _keep_best(score, trial, ft, zt, index, s_best, f_best, z_best):
     b = np.argmin(score, axis=1)
     better = score[rows, b] < np.abs(f_best[index])
     upd = index[better]
-    s_best[upd], f_best[upd], z_best[upd] = trial[rows, b][better], ft[rows, b][better], zt[rows, b][better]
+    s_best[upd], f_best[upd], z_best[upd] = (
+        trial[rows, b][better],
+        ft[rows, b][better],
+        zt[rows, b][better],
+    )
 
 
-def solve_current(impedance: Callable[[np.ndarray, np.ndarray], np.ndarray], voltage, resistance, *,
-                  initial=None, tol: float = 1e-12, max_iter: int = 60, budget: int | None = None):
+def solve_current(
+    impedance: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    voltage,
+    resistance,
+    *,
+    initial=None,
+    tol: float = 1e-12,
+    max_iter: int = 60,
+    budget: int | None = None,
+):
     """Solve ``I |R + Z(I)| = V`` for the current amplitude, all points at once.
 
     Works on ``F(s) = s + ln|R + Z(e^s)| - ln V`` in ``s = ln I`` (the log of the relative
@@ -114,8 +127,13 @@ def solve_current(impedance: Callable[[np.ndarray, np.ndarray], np.ndarray], vol
             up = ~np.isfinite(hi[need])
             base = np.where(up, lo[need], hi[need])
             f_base = np.where(up, flo[need], fhi[need])
-            step = np.concatenate([np.abs(f_base)[:, None] * np.array(multiples),
-                                   np.broadcast_to(_LN10 * np.array(decades), (need.size, len(decades)))], axis=1)
+            step = np.concatenate(
+                [
+                    np.abs(f_base)[:, None] * np.array(multiples),
+                    np.broadcast_to(_LN10 * np.array(decades), (need.size, len(decades))),
+                ],
+                axis=1,
+            )
             trial = base[:, None] + np.where(up, 1.0, -1.0)[:, None] * np.sort(step, axis=1)
             ft, zt = _evaluate(residual, trial, need)
             flipped = np.sign(f_base)[:, None] * ft <= 0  # first trial across the root
@@ -141,15 +159,32 @@ def solve_current(impedance: Callable[[np.ndarray, np.ndarray], np.ndarray], vol
             l, h, fl, fh, prev = lo[act], hi[act], flo[act], fhi[act], last[act]
             den = fh - fl
             guess = np.where(den > 0, h - fh * (h - l) / den, 0.5 * (l + h))
-            extra = int(min(31, budget // act.size - 1))  # never more evaluations than the first call
+            extra = int(
+                min(31, budget // act.size - 1)
+            )  # never more evaluations than the first call
             if extra <= 0:  # many points left: one Illinois step each
                 fs, zs = residual(guess, act)
                 low = fs < 0
                 move = np.where(low, -1, 1).astype(np.int8)
-                lo[act], flo[act] = np.where(low, guess, l), np.where(low, fs, np.where(prev == 1, 0.5 * fl, fl))
-                hi[act], fhi[act] = np.where(low, h, guess), np.where(low, np.where(prev == -1, 0.5 * fh, fh), fs)
+                lo[act], flo[act] = (
+                    np.where(low, guess, l),
+                    np.where(low, fs, np.where(prev == 1, 0.5 * fl, fl)),
+                )
+                hi[act], fhi[act] = (
+                    np.where(low, h, guess),
+                    np.where(low, np.where(prev == -1, 0.5 * fh, fh), fs),
+                )
                 last[act] = move
-                _keep_best(np.abs(fs)[:, None], guess[:, None], fs[:, None], zs[:, None], act, s_best, f_best, z_best)
+                _keep_best(
+                    np.abs(fs)[:, None],
+                    guess[:, None],
+                    fs[:, None],
+                    zs[:, None],
+                    act,
+                    s_best,
+                    f_best,
+                    z_best,
+                )
                 lost = ~np.isfinite(fs)
             else:  # few points left (the model's per-call overhead dominates): add a K-section
                 grid = l[:, None] + (h - l)[:, None] * (np.arange(1, extra + 1) / (extra + 1.0))
@@ -168,7 +203,9 @@ def solve_current(impedance: Callable[[np.ndarray, np.ndarray], np.ndarray], vol
                 _keep_best(np.abs(ft), trial, ft, zt, act, s_best, f_best, z_best)
             narrow = hi[act] - lo[act] <= 4e-16 * np.maximum(1.0, np.abs(s_best[act]))
             done[act] = lost | narrow | (np.abs(f_best[act]) <= tol)
-        current = np.where((bracketed | (f_best == 0)) & np.isfinite(f_best), np.exp(s_best), np.nan)
+        current = np.where(
+            (bracketed | (f_best == 0)) & np.isfinite(f_best), np.exp(s_best), np.nan
+        )
     if not positive.all():  # V <= 0: no current; Z(0) is the model's small-signal limit
         zero = np.flatnonzero(~positive)
         current[zero], z_best[zero] = 0.0, impedance(np.zeros(zero.size), zero)

@@ -1,4 +1,5 @@
 """The ``direct`` chain: the core's DF read directly, the input only scaled (section V.4.1)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -22,14 +23,29 @@ class DirectChain(MeasurementChain):
     name = "direct"
     title = "Core DF read directly (input scale only)"
     params = (
-        ParamSpec("input_scale", 3e3, (1.0, 1e7), unit="V/A",
-                  description="input volts per unit of model input (winding current)",
-                  equation="sec V.4.1 (calibration in input volts)", log=True),
+        ParamSpec(
+            "input_scale",
+            3e3,
+            (1.0, 1e7),
+            unit="V/A",
+            description="input volts per unit of model input (winding current)",
+            equation="sec V.4.1 (calibration in input volts)",
+            log=True,
+        ),
     )
 
     @classmethod
-    def operating_point(cls, model, amplitude, frequency, source_impedance, model_theta,
-                        chain_theta, *, initial_current=None) -> OperatingPoint:
+    def operating_point(
+        cls,
+        model,
+        amplitude,
+        frequency,
+        source_impedance,
+        model_theta,
+        chain_theta,
+        *,
+        initial_current=None,
+    ) -> OperatingPoint:
         model = get_model(model)
         V, f, _ = as_points(amplitude, frequency, source_impedance)
         scale = split_theta(cls.params, chain_theta)["input_scale"]

@@ -1,4 +1,5 @@
 """The ``winding`` chain: the sinusoidal-current approximation of the circuit of Fig 5.10."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -32,16 +33,36 @@ class WindingChain(MeasurementChain):
     name = "winding"
     title = "Winding in series with the source resistance (Fig 5.10)"
     params = (
-        ParamSpec("r_winding", 70.0, (1.0, 5000.0), unit="ohm",
-                  description="winding resistance (plus any fixed series resistance)",
-                  equation="sec V.5, Fig 5.10", log=True),
-        ParamSpec("gain", 1.0, (0.5, 1.5), unit="1",
-                  description="calibration gain of the output reading (turns ratio, analyser)",
-                  equation="Tables B.1-B.5 footnotes"),
+        ParamSpec(
+            "r_winding",
+            70.0,
+            (1.0, 5000.0),
+            unit="ohm",
+            description="winding resistance (plus any fixed series resistance)",
+            equation="sec V.5, Fig 5.10",
+            log=True,
+        ),
+        ParamSpec(
+            "gain",
+            1.0,
+            (0.5, 1.5),
+            unit="1",
+            description="calibration gain of the output reading (turns ratio, analyser)",
+            equation="Tables B.1-B.5 footnotes",
+        ),
     )
 
     @classmethod
-    def _solve(cls, model, amplitude, frequency, source_impedance, model_theta, chain_theta, initial_current):
+    def _solve(
+        cls,
+        model,
+        amplitude,
+        frequency,
+        source_impedance,
+        model_theta,
+        chain_theta,
+        initial_current,
+    ):
         model = get_model(model)
         V, f, Rs = as_points(amplitude, frequency, source_impedance)
         mkw = split_theta(model.params, model_theta)
@@ -53,11 +74,14 @@ class WindingChain(MeasurementChain):
         flat_kw = {k: np.broadcast_to(v, shape).ravel() for k, v in mkw.items()}
 
         def impedance(current, index):
-            N = model.describing_function(current, flat_f[index], **{k: v[index] for k, v in flat_kw.items()})
+            N = model.describing_function(
+                current, flat_f[index], **{k: v[index] for k, v in flat_kw.items()}
+            )
             return 2j * np.pi * flat_f[index] * N
 
-        current, Z = solve_current(impedance, np.broadcast_to(V, shape), np.broadcast_to(R, shape),
-                                   initial=initial_current)
+        current, Z = solve_current(
+            impedance, np.broadcast_to(V, shape), np.broadcast_to(R, shape), initial=initial_current
+        )
 
         def inductance(i):
             return model.describing_function(i, f, **mkw)
@@ -65,17 +89,37 @@ class WindingChain(MeasurementChain):
         return current, Z, ckw["gain"] * Z / (R + Z), inductance
 
     @classmethod
-    def predict(cls, model, amplitude, frequency, source_impedance, model_theta, chain_theta, *,
-                initial_current=None):
+    def predict(
+        cls,
+        model,
+        amplitude,
+        frequency,
+        source_impedance,
+        model_theta,
+        chain_theta,
+        *,
+        initial_current=None,
+    ):
         """``gain Z / (R + Z)`` at the self-consistent current; see :meth:`MeasurementChain.predict`."""
-        return cls._solve(model, amplitude, frequency, source_impedance, model_theta, chain_theta,
-                          initial_current)[2]
+        return cls._solve(
+            model, amplitude, frequency, source_impedance, model_theta, chain_theta, initial_current
+        )[2]
 
     @classmethod
-    def operating_point(cls, model, amplitude, frequency, source_impedance, model_theta,
-                        chain_theta, *, initial_current=None) -> OperatingPoint:
-        current, _, df, inductance = cls._solve(model, amplitude, frequency, source_impedance,
-                                                model_theta, chain_theta, initial_current)
+    def operating_point(
+        cls,
+        model,
+        amplitude,
+        frequency,
+        source_impedance,
+        model_theta,
+        chain_theta,
+        *,
+        initial_current=None,
+    ) -> OperatingPoint:
+        current, _, df, inductance = cls._solve(
+            model, amplitude, frequency, source_impedance, model_theta, chain_theta, initial_current
+        )
         N = inductance(current)
         shape = np.broadcast_shapes(df.shape, N.shape)
         return OperatingPoint(*(np.broadcast_to(a, shape).copy() for a in (current, N, df)))

@@ -10,6 +10,7 @@ the neighbours decide whether the input, the DF or only the output cell is wrong
 (5) spikes of magnitude or phase against their own curve, tuned not to flag the genuine
 saturation knees.
 """
+
 from __future__ import annotations
 
 from bisect import bisect_left
@@ -20,7 +21,15 @@ import pandas as pd
 
 from fitdf.errors import DataError, OptionError
 
-__all__ = ["audit", "block_factors", "select_rows", "findings", "POLICIES", "MAG_SPIKE", "PHASE_SPIKE"]
+__all__ = [
+    "audit",
+    "block_factors",
+    "select_rows",
+    "findings",
+    "POLICIES",
+    "MAG_SPIKE",
+    "PHASE_SPIKE",
+]
 
 POLICIES = ("default", "all", "strict")
 
@@ -44,11 +53,30 @@ STEP_OUTLIER = 4.0
 #: Relative window (log10) around a block's median factor that counts as "following" it.
 _FACTOR_WINDOW = 0.02
 
-_AUDIT_COLUMNS = ("flag", "reasons", "amplitude_trusted", "magnitude_trusted", "phase_trusted", "h1_trusted",
-                  "exclude_default", "df_recomputed", "df_tolerance")
+_AUDIT_COLUMNS = (
+    "flag",
+    "reasons",
+    "amplitude_trusted",
+    "magnitude_trusted",
+    "phase_trusted",
+    "h1_trusted",
+    "exclude_default",
+    "df_recomputed",
+    "df_tolerance",
+)
 _BLOCK = ["table", "source_impedance_ohm", "frequency_hz"]
-_FACTOR_COLUMNS = [*_BLOCK, "factor_printed", "factor_data", "rows_with_output", "rows_printed_ok", "rows_data_ok",
-                   "follows_printed", "shift_power", "shift_column", "shift_rows"]
+_FACTOR_COLUMNS = [
+    *_BLOCK,
+    "factor_printed",
+    "factor_data",
+    "rows_with_output",
+    "rows_printed_ok",
+    "rows_data_ok",
+    "follows_printed",
+    "shift_power",
+    "shift_column",
+    "shift_rows",
+]
 
 
 # ------------------------------------------------------------------ public API
@@ -103,7 +131,9 @@ def select_rows(df: pd.DataFrame, policy: str = "default") -> pd.DataFrame:
     if policy not in POLICIES:
         raise OptionError(f"unknown row policy {policy!r}; choose one of {', '.join(POLICIES)}")
     frame = df if all(c in df for c in _AUDIT_COLUMNS) else audit(df)
-    keep = {"all": True, "default": ~frame["exclude_default"], "strict": frame["flag"] == "ok"}[policy]
+    keep = {"all": True, "default": ~frame["exclude_default"], "strict": frame["flag"] == "ok"}[
+        policy
+    ]
     return frame[frame["df_reported"].notna() & frame["phase_lead_deg"].notna() & keep]
 
 
@@ -112,23 +142,33 @@ def findings(df: pd.DataFrame) -> list[str]:
     rows, blocks = _analyse(df)
     out = _factor_sentences(blocks)
     for _, b in blocks[blocks["shift_power"] != 0].iterrows():
-        out.append(f"{b['table']} f={b['frequency_hz']:g} c/s rows {b['shift_rows']}: {b['shift_column']} printed "
-                   f"10^{b['shift_power']:+d} times its value (a power-of-ten shift); the rows are "
-                   "consistent once it is undone.")
+        out.append(
+            f"{b['table']} f={b['frequency_hz']:g} c/s rows {b['shift_rows']}: {b['shift_column']} printed "
+            f"10^{b['shift_power']:+d} times its value (a power-of-ten shift); the rows are "
+            "consistent once it is undone."
+        )
     for label, r in rows[rows["flag"] == "suspect"].iterrows():
         where = f" ({r['source']})" if isinstance(r.get("source"), str) and r.get("source") else ""
-        out.append(f"{r.get('table', 'data')} f={r['frequency_hz']:g} c/s row {r.get('row_in_block', label)} "
-                   f"(input {r['input_v']:g} V){where}: {r['reasons']}.")
+        out.append(
+            f"{r.get('table', 'data')} f={r['frequency_hz']:g} c/s row {r.get('row_in_block', label)} "
+            f"(input {r['input_v']:g} V){where}: {r['reasons']}."
+        )
     zero = rows[rows["df_reported"] == 0]
     if len(zero):
-        cells = ", ".join(f"{r.get('table', 'data')} {r['frequency_hz']:g} c/s {r['input_v']:g} V"
-                          for _, r in zero.iterrows())
-        out.append(f"{len(zero)} rows have zero output ({cells}): magnitude 0 is kept, the printed phase of a zero "
-                   "signal is meaningless (phase untrusted).")
+        cells = ", ".join(
+            f"{r.get('table', 'data')} {r['frequency_hz']:g} c/s {r['input_v']:g} V"
+            for _, r in zero.iterrows()
+        )
+        out.append(
+            f"{len(zero)} rows have zero output ({cells}): magnitude 0 is kept, the printed phase of a zero "
+            "signal is meaningless (phase untrusted)."
+        )
     keep = {p: len(select_rows(rows, p)) for p in POLICIES}
-    out.append(f"Row policies on these {len(rows)} rows: 'all' keeps {keep['all']}, 'default' keeps "
-               f"{keep['default']}, 'strict' keeps {keep['strict']}; {int((rows['flag'] == 'suspect').sum())} rows "
-               f"are suspect, {int((rows['flag'] == 'note').sum())} carry a note.")
+    out.append(
+        f"Row policies on these {len(rows)} rows: 'all' keeps {keep['all']}, 'default' keeps "
+        f"{keep['default']}, 'strict' keeps {keep['strict']}; {int((rows['flag'] == 'suspect').sum())} rows "
+        f"are suspect, {int((rows['flag'] == 'note').sum())} carry a note."
+    )
     return out
 
 
@@ -137,17 +177,30 @@ class _Rows:
     """Arrays of the rows under audit plus the flags accumulated so far."""
 
     def __init__(self, df: pd.DataFrame):
-        missing = [c for c in ("input_v", "df_reported", "phase_lead_deg", "frequency_hz") if c not in df]
+        missing = [
+            c for c in ("input_v", "df_reported", "phase_lead_deg", "frequency_hz") if c not in df
+        ]
         if missing:
             raise DataError(f"audit needs the columns {missing}")
         self.frame = f = df.drop(columns=[c for c in _AUDIT_COLUMNS if c in df])
         n = len(f)
         col = lambda name, default: f[name].to_numpy(float) if name in f else np.full(n, default)  # noqa: E731
-        self.a, self.d, self.p = col("input_v", np.nan), col("df_reported", np.nan), col("phase_lead_deg", np.nan)
+        self.a, self.d, self.p = (
+            col("input_v", np.nan),
+            col("df_reported", np.nan),
+            col("phase_lead_deg", np.nan),
+        )
         self.h, self.k_printed = col("h1_output_v", np.nan), col("df_factor_printed", np.nan)
-        table = f["table"].astype(str).to_numpy() if "table" in f else np.full(n, "data", dtype=object)
-        self.keys = pd.DataFrame({"table": table, "source_impedance_ohm": col("source_impedance_ohm", 0.0),
-                                  "frequency_hz": col("frequency_hz", np.nan)})
+        table = (
+            f["table"].astype(str).to_numpy() if "table" in f else np.full(n, "data", dtype=object)
+        )
+        self.keys = pd.DataFrame(
+            {
+                "table": table,
+                "source_impedance_ohm": col("source_impedance_ohm", 0.0),
+                "frequency_hz": col("frequency_hz", np.nan),
+            }
+        )
         self.block = self.keys.groupby(_BLOCK, sort=False, dropna=False).ngroup().to_numpy()
         self.order = col("row_in_block", 0.0) if "row_in_block" in f else np.arange(n, dtype=float)
         self.reasons = [[] for _ in range(n)]
@@ -175,11 +228,15 @@ def _analyse(df: pd.DataFrame):
         blocks = _factor_analysis(r)
         _check_smoothness(r)
     out = r.frame.copy()
-    out["flag"] = np.where(r.suspect, "suspect", np.where([bool(x) for x in r.reasons], "note", "ok"))
+    out["flag"] = np.where(
+        r.suspect, "suspect", np.where([bool(x) for x in r.reasons], "note", "ok")
+    )
     out["reasons"] = ["; ".join(x) for x in r.reasons]
     for key in ("amplitude", "magnitude", "phase", "h1"):
         out[f"{key}_trusted"] = r.trust[key]
-    out["exclude_default"] = ~(r.trust["amplitude"] & r.trust["magnitude"] & r.trust["phase"]) | r.dup_extra
+    out["exclude_default"] = (
+        ~(r.trust["amplitude"] & r.trust["magnitude"] & r.trust["phase"]) | r.dup_extra
+    )
     out["df_recomputed"], out["df_tolerance"] = r.d_exp, r.tol
     return out, blocks
 
@@ -194,17 +251,23 @@ def _factor_sentences(blocks: pd.DataFrame) -> list[str]:
         off = known[~known["follows_printed"].fillna(True).astype(bool)]
         spread = f"{known['factor_data'].min():.3f}-{known['factor_data'].max():.3f}"
         if np.isnan(printed):
-            out.append(f"{table}: no footnote factor; the data follow DF = {data:.3f} x output / input "
-                       f"(blocks {spread}).")
+            out.append(
+                f"{table}: no footnote factor; the data follow DF = {data:.3f} x output / input "
+                f"(blocks {spread})."
+            )
         elif off.empty:
-            out.append(f"{table}: the footnote factor {printed:.4g} is followed by all {len(known)} frequency blocks "
-                       f"(data {spread}).")
+            out.append(
+                f"{table}: the footnote factor {printed:.4g} is followed by all {len(known)} frequency blocks "
+                f"(data {spread})."
+            )
         else:
             which = "all" if len(off) == len(known) else f"{len(off)} of {len(known)}"
             freqs = ", ".join(f"{f:g}" for f in off["frequency_hz"])
-            out.append(f"{table}: the footnote factor {printed:.4g} fits {int(off['rows_printed_ok'].sum())} of "
-                       f"{int(off['rows_with_output'].sum())} rows in {which} frequency blocks ({freqs} c/s); the data "
-                       f"follow {data:.3f} (blocks {spread}), i.e. {data / printed:.3f} x the footnote.")
+            out.append(
+                f"{table}: the footnote factor {printed:.4g} fits {int(off['rows_printed_ok'].sum())} of "
+                f"{int(off['rows_with_output'].sum())} rows in {which} frequency blocks ({freqs} c/s); the data "
+                f"follow {data:.3f} (blocks {spread}), i.e. {data / printed:.3f} x the footnote."
+            )
     return out
 
 
@@ -217,7 +280,12 @@ def _check_cells(r: _Rows):
     for i in np.flatnonzero(~(r.a > 0)):
         r.mark(i, "input_v missing or not positive", untrust=("amplitude",))
     for i in np.flatnonzero((r.d == 0) & ~np.isnan(r.p)):
-        r.mark(i, f"zero output: its printed phase ({r.p[i]:g} deg) is undefined", untrust=("phase",), suspect=False)
+        r.mark(
+            i,
+            f"zero output: its printed phase ({r.p[i]:g} deg) is undefined",
+            untrust=("phase",),
+            suspect=False,
+        )
     key = pd.DataFrame({"b": r.block, "a": r.a, "d": r.d, "p": r.p})
     for _, g in key[key.duplicated(keep=False)].groupby(list(key.columns), dropna=False):
         pos = g.index.to_numpy()
@@ -234,7 +302,7 @@ def _lis(x) -> list[int]:
     tails, tail_pos, prev, out = [], [], [-1] * len(x), []
     for i, v in enumerate(x):
         j = bisect_left(tails, v)
-        tails[j:j + 1], tail_pos[j:j + 1], prev[i] = [v], [i], tail_pos[j - 1] if j else -1
+        tails[j : j + 1], tail_pos[j : j + 1], prev[i] = [v], [i], tail_pos[j - 1] if j else -1
     i = tail_pos[-1] if tail_pos else -1
     while i >= 0:
         out, i = [i, *out], prev[i]
@@ -245,10 +313,16 @@ def _check_order(r: _Rows):
     for idx in r.blocks():
         idx = idx[~r.dup_extra[idx] & np.isfinite(r.a[idx])]
         keep = set(_lis(r.a[idx]))
-        if len(keep) < 0.75 * len(idx):  # a block not printed in increasing order: order says nothing
+        if len(keep) < 0.75 * len(
+            idx
+        ):  # a block not printed in increasing order: order says nothing
             continue
         for j in sorted(set(range(len(idx))) - keep):
-            r.mark(idx[j], f"input_v {r.a[idx[j]]:g} V out of its block's increasing order", untrust=("amplitude",))
+            r.mark(
+                idx[j],
+                f"input_v {r.a[idx[j]]:g} V out of its block's increasing order",
+                untrust=("amplitude",),
+            )
 
 
 def _resolutions(r: _Rows) -> dict[str, np.ndarray]:
@@ -261,10 +335,18 @@ def _resolutions(r: _Rows) -> dict[str, np.ndarray]:
     dec = {}
     for col, v in (("input_v", r.a), ("h1_output_v", r.h), ("df_reported", r.d)):
         name = f"{col}_decimals"
-        given = r.frame[name].to_numpy(float, na_value=np.nan) if name in r.frame else np.full(len(v), np.nan)
+        given = (
+            r.frame[name].to_numpy(float, na_value=np.nan)
+            if name in r.frame
+            else np.full(len(v), np.nan)
+        )
         # without the printed text (a plain DataFrame) the shortest repr is the best guess
-        inferred = [len(np.format_float_positional(x, trim="-").partition(".")[2]) if np.isfinite(x) else np.nan
-                    for x in v]
+        inferred = [
+            len(np.format_float_positional(x, trim="-").partition(".")[2])
+            if np.isfinite(x)
+            else np.nan
+            for x in v
+        ]
         dec[col] = np.where(np.isnan(given), np.asarray(inferred, float), given)
     for idx in r.blocks():
         if np.isfinite(dec["input_v"][idx]).any():
@@ -281,7 +363,7 @@ def _runs(positions, s):
     out, j = [], 0
     for value, group in groupby(s):
         m = len(list(group))
-        out += [positions[j:j + m]] if value != 0 and m >= 2 else []
+        out += [positions[j : j + m]] if value != 0 and m >= 2 else []
         j += m
     return out
 
@@ -301,7 +383,11 @@ def _factor_analysis(r: _Rows) -> pd.DataFrame:
     n, usable = len(r.a), (r.h > 0) & (r.d > 0) & (r.a > 0)
     k = np.where(usable, r.d * r.a / r.h, np.nan)
     tables = r.keys["table"].to_numpy()
-    k0 = {t: np.median(k[(tables == t) & usable]) for t in np.unique(tables) if ((tables == t) & usable).any()}
+    k0 = {
+        t: np.median(k[(tables == t) & usable])
+        for t in np.unique(tables)
+        if ((tables == t) & usable).any()
+    }
     shift, runs = np.zeros(n, int), []
     for idx in r.blocks():
         u = idx[usable[idx]]
@@ -310,7 +396,7 @@ def _factor_analysis(r: _Rows) -> pd.DataFrame:
             runs += _runs(u, s)
     for run in runs:
         shift[run] = np.rint(np.log10(k[run[0]] / k0[tables[run[0]]]))
-    res, kc, out = _resolutions(r), k / 10.0 ** shift, []
+    res, kc, out = _resolutions(r), k / 10.0**shift, []
     for idx in r.blocks():
         t, u, printed = tables[idx[0]], idx[usable[idx]], r.k_printed[idx[0]]
         kb = k0.get(t, np.nan)
@@ -322,8 +408,9 @@ def _factor_analysis(r: _Rows) -> pd.DataFrame:
         for name, factor in (("printed", printed), ("data", kb)):
             K = factor * 10.0 ** shift[idx]
             d_exp = K * r.h[idx] / r.a[idx]
-            tol = res["df_reported"][idx] + K * (res["h1_output_v"][idx] / r.a[idx]
-                                                  + r.h[idx] * res["input_v"][idx] / r.a[idx] ** 2)
+            tol = res["df_reported"][idx] + K * (
+                res["h1_output_v"][idx] / r.a[idx] + r.h[idx] * res["input_v"][idx] / r.a[idx] ** 2
+            )
             ok[name] = (np.abs(r.d[idx] - d_exp) <= tol * (1 + 1e-9), d_exp, tol, K)
         n_p, n_d = int(ok["printed"][0][usable[idx]].sum()), int(ok["data"][0][usable[idx]].sum())
         follows = bool(n_p >= max(1, 0.8 * n_d)) if np.isfinite(printed) else None
@@ -337,17 +424,34 @@ def _factor_analysis(r: _Rows) -> pd.DataFrame:
             span = f"{r.order[run[0]]:g}-{r.order[run[-1]]:g}"
             # k = df * input / h1, so a too-large output lowers k and a too-large input or DF raises it
             power = -shift[run[0]] if column == "h1_output_v" else shift[run[0]]
-            untrust = {"df_reported": ("magnitude",), "input_v": ("amplitude",)}.get(column, ("h1",))
+            untrust = {"df_reported": ("magnitude",), "input_v": ("amplitude",)}.get(
+                column, ("h1",)
+            )
             for i in run:
-                r.mark(i, f"{column} printed 10^{power:+d} times its value (power-of-ten shift of rows {span})",
-                       untrust=untrust, suspect=column != "h1_output_v")
+                r.mark(
+                    i,
+                    f"{column} printed 10^{power:+d} times its value (power-of-ten shift of rows {span})",
+                    untrust=untrust,
+                    suspect=column != "h1_output_v",
+                )
         for j in np.flatnonzero(~good & np.isfinite(d_exp) & np.isfinite(r.d[idx])):
             _attribute(r, idx, idx[j], d_exp[j], tol[j], K[j])
-        out.append({"table": t, "source_impedance_ohm": r.keys["source_impedance_ohm"].iloc[idx[0]],
-                    "frequency_hz": r.keys["frequency_hz"].iloc[idx[0]], "factor_printed": printed,
-                    "factor_data": kb, "rows_with_output": int(u.size), "rows_printed_ok": n_p, "rows_data_ok": n_d,
-                    "follows_printed": follows, "shift_power": int(power),
-                    "shift_column": column, "shift_rows": span})
+        out.append(
+            {
+                "table": t,
+                "source_impedance_ohm": r.keys["source_impedance_ohm"].iloc[idx[0]],
+                "frequency_hz": r.keys["frequency_hz"].iloc[idx[0]],
+                "factor_printed": printed,
+                "factor_data": kb,
+                "rows_with_output": int(u.size),
+                "rows_printed_ok": n_p,
+                "rows_data_ok": n_d,
+                "follows_printed": follows,
+                "shift_power": int(power),
+                "shift_column": column,
+                "shift_rows": span,
+            }
+        )
     return pd.DataFrame(out, columns=_FACTOR_COLUMNS)
 
 
@@ -360,8 +464,11 @@ def _best_residual(x, y, x0, y0) -> float:
     """
     o = np.argsort(x, kind="stable")
     x, y, k = x[o], y[o], int(np.searchsorted(x[o], x0))
-    preds = [y[i] + (y[j] - y[i]) * (x0 - x[i]) / (x[j] - x[i])
-             for i, j in ((k - 1, k), (k - 2, k - 1), (k, k + 1)) if 0 <= i < j < len(x) and x[j] != x[i]]
+    preds = [
+        y[i] + (y[j] - y[i]) * (x0 - x[i]) / (x[j] - x[i])
+        for i, j in ((k - 1, k), (k - 2, k - 1), (k, k + 1))
+        if 0 <= i < j < len(x) and x[j] != x[i]
+    ]
     return float(min((y0 - p for p in preds), key=abs)) if preds else np.nan
 
 
@@ -378,18 +485,33 @@ def _attribute(r: _Rows, idx, i, d_exp, tol, K):
         return
     a_imp = K * r.h[i] / r.d[i] if r.d[i] > 0 else np.nan
     if _off_sequence(r, idx, i, a_imp):
-        r.mark(i, f"input_v {r.a[i]:g} V off its block's sequence: output and DF imply {a_imp:.3g} V ({detail})",
-               untrust=("amplitude",))
+        r.mark(
+            i,
+            f"input_v {r.a[i]:g} V off its block's sequence: output and DF imply {a_imp:.3g} V ({detail})",
+            untrust=("amplitude",),
+        )
         return
-    nb = idx[(idx != i) & r.trust["amplitude"][idx] & r.trust["magnitude"][idx] & ~r.dup_extra[idx]
-             & np.isfinite(r.d[idx])]
+    nb = idx[
+        (idx != i)
+        & r.trust["amplitude"][idx]
+        & r.trust["magnitude"][idx]
+        & ~r.dup_extra[idx]
+        & np.isfinite(r.d[idx])
+    ]
     x, x0 = np.log(r.a[nb]), np.log(r.a[i])
     res_d, res_alt = _best_residual(x, r.d[nb], x0, r.d[i]), _best_residual(x, r.d[nb], x0, d_exp)
     if np.isnan(res_d) or (abs(res_d) > MAG_NOISE and abs(res_alt) < abs(res_d)):
-        r.mark(i, f"df_reported off its curve by {res_d:+.3f} while factor x h1/input is on it ({detail})",
-               untrust=("magnitude",))
+        r.mark(
+            i,
+            f"df_reported off its curve by {res_d:+.3f} while factor x h1/input is on it ({detail})",
+            untrust=("magnitude",),
+        )
     else:
-        r.mark(i, f"h1_output_v inconsistent ({detail}); df_reported lies on its curve", untrust=("h1",))
+        r.mark(
+            i,
+            f"h1_output_v inconsistent ({detail}); df_reported lies on its curve",
+            untrust=("h1",),
+        )
 
 
 def _off_sequence(r: _Rows, idx, i, a_imp) -> bool:
@@ -415,8 +537,10 @@ def _check_smoothness(r: _Rows):
     for idx in r.blocks():
         base = idx[r.trust["amplitude"][idx] & ~r.dup_extra[idx] & np.isfinite(r.d[idx])]
         base = base[np.argsort(r.a[base], kind="stable")]
-        for y, key, col, thr in ((r.d, "magnitude", "df_reported", MAG_SPIKE),
-                                 (r.p, "phase", "phase_lead_deg", PHASE_SPIKE)):
+        for y, key, col, thr in (
+            (r.d, "magnitude", "df_reported", MAG_SPIKE),
+            (r.p, "phase", "phase_lead_deg", PHASE_SPIKE),
+        ):
             pts = base[np.isfinite(y[base]) & r.trust[key][base]]
             while len(pts) >= 3:
                 worst, worst_res = None, thr
@@ -430,6 +554,10 @@ def _check_smoothness(r: _Rows):
                         worst, worst_res = j, res
                 if worst is None:
                     break
-                r.mark(pts[worst], f"{col} {y[pts[worst]]:g} breaks the smoothness of its curve (off by "
-                                   f"{worst_res:+.3g})", untrust=(key,))
+                r.mark(
+                    pts[worst],
+                    f"{col} {y[pts[worst]]:g} breaks the smoothness of its curve (off by "
+                    f"{worst_res:+.3g})",
+                    untrust=(key,),
+                )
                 pts = np.delete(pts, worst)

@@ -33,6 +33,7 @@ Assumptions (the thesis prints neither): ``l_e`` is the mean circumference
 dimensions are the bare tape-wound core's, not its case's; the iron section is the gross
 section ``(OD - ID) / 2 x h`` times the stacking factor :data:`STACKING_FACTOR`.
 """
+
 from __future__ import annotations
 
 import math
@@ -44,10 +45,22 @@ from fitdf.data.datasets import load
 from fitdf.errors import OptionError
 
 __all__ = [
-    "winding_resistance_estimate", "AWG34_OHM_PER_M", "CASE_ALLOWANCE_IN",
-    "CoreGeometry", "core_geometry", "appendix_a_ranges", "APPENDIX_A_MATERIAL_QUANTITIES",
-    "MU_0", "A_PER_M_PER_OERSTED", "GAUSS_PER_TESLA", "STACKING_FACTOR", "INCH",
-    "oersted_to_a_per_m", "a_per_m_to_oersted", "tesla_to_gauss", "gauss_to_tesla",
+    "winding_resistance_estimate",
+    "AWG34_OHM_PER_M",
+    "CASE_ALLOWANCE_IN",
+    "CoreGeometry",
+    "core_geometry",
+    "appendix_a_ranges",
+    "APPENDIX_A_MATERIAL_QUANTITIES",
+    "MU_0",
+    "A_PER_M_PER_OERSTED",
+    "GAUSS_PER_TESLA",
+    "STACKING_FACTOR",
+    "INCH",
+    "oersted_to_a_per_m",
+    "a_per_m_to_oersted",
+    "tesla_to_gauss",
+    "gauss_to_tesla",
 ]
 
 #: Resistance of #34 AWG copper wire (0.160 mm, 20 degC): rho / area = 1.72e-8 / 2.01e-8 m^2.
@@ -75,8 +88,12 @@ STACKING_FACTOR = 0.85
 
 #: The material quantities of Appendix A that :func:`appendix_a_ranges` returns.
 APPENDIX_A_MATERIAL_QUANTITIES = (
-    "initial_permeability", "maximum_permeability", "coercive_force_Hc",
-    "peak_flux_density_Bp", "residual_induction_Br", "squareness_Br_over_Bp",
+    "initial_permeability",
+    "maximum_permeability",
+    "coercive_force_Hc",
+    "peak_flux_density_Bp",
+    "residual_induction_Br",
+    "squareness_Br_over_Bp",
 )
 
 
@@ -104,8 +121,10 @@ def _rows(core, hint=""):
     table = load("appendix_a")
     rows = table[table["core"] == str(core).lower()]
     if rows.empty:
-        raise OptionError(f"no Appendix A data for core {core!r} (known cores: "
-                          f"{', '.join(sorted(set(table['core'])))}){hint}")
+        raise OptionError(
+            f"no Appendix A data for core {core!r} (known cores: "
+            f"{', '.join(sorted(set(table['core'])))}){hint}"
+        )
     return rows
 
 
@@ -153,11 +172,22 @@ class CoreGeometry:
         for field_name in ("turns", "l_e", "a_e"):
             value = getattr(self, field_name)
             if not (np.isfinite(value) and value > 0):
-                raise OptionError(f"core geometry: {field_name} must be a positive number, got {value!r}")
+                raise OptionError(
+                    f"core geometry: {field_name} must be a positive number, got {value!r}"
+                )
 
     @classmethod
-    def from_dimensions(cls, turns, outside_diameter, inside_diameter, height, *,
-                        stacking_factor=STACKING_FACTOR, r_winding_estimate=None, name=""):
+    def from_dimensions(
+        cls,
+        turns,
+        outside_diameter,
+        inside_diameter,
+        height,
+        *,
+        stacking_factor=STACKING_FACTOR,
+        r_winding_estimate=None,
+        name="",
+    ):
         """Geometry of a tape-wound toroid from its dimensions (SI: metre).
 
         Parameters
@@ -182,13 +212,20 @@ class CoreGeometry:
         od, idia, h = float(outside_diameter), float(inside_diameter), float(height)
         sf = float(stacking_factor)
         if not (od > idia > 0 and h > 0):
-            raise OptionError(f"core dimensions: need outside diameter > inside diameter > 0 and height > 0, "
-                              f"got {od!r}, {idia!r}, {h!r}")
+            raise OptionError(
+                f"core dimensions: need outside diameter > inside diameter > 0 and height > 0, "
+                f"got {od!r}, {idia!r}, {h!r}"
+            )
         if not 0 < sf <= 1:
             raise OptionError(f"stacking factor must lie in (0, 1], got {sf!r}")
-        return cls(turns=float(turns), l_e=math.pi * (od + idia) / 2.0, a_e=(od - idia) / 2.0 * h * sf,
-                   r_winding_estimate=None if r_winding_estimate is None else float(r_winding_estimate),
-                   name=str(name), stacking_factor=sf)
+        return cls(
+            turns=float(turns),
+            l_e=math.pi * (od + idia) / 2.0,
+            a_e=(od - idia) / 2.0 * h * sf,
+            r_winding_estimate=None if r_winding_estimate is None else float(r_winding_estimate),
+            name=str(name),
+            stacking_factor=sf,
+        )
 
     # --- scale factors -------------------------------------------------------------------
     @property
@@ -245,11 +282,16 @@ class CoreGeometry:
 
     def to_dict(self) -> dict:
         """Plain-float summary (SI), with the scale factors."""
-        return {"name": self.name, "turns": float(self.turns), "l_e_m": float(self.l_e),
-                "a_e_m2": float(self.a_e), "stacking_factor": self.stacking_factor,
-                "r_winding_estimate_ohm": self.r_winding_estimate,
-                "field_a_per_m_per_ampere": float(self.field_per_ampere),
-                "inductance_h_per_mu_r": float(self.inductance_per_permeability)}
+        return {
+            "name": self.name,
+            "turns": float(self.turns),
+            "l_e_m": float(self.l_e),
+            "a_e_m2": float(self.a_e),
+            "stacking_factor": self.stacking_factor,
+            "r_winding_estimate_ohm": self.r_winding_estimate,
+            "field_a_per_m_per_ampere": float(self.field_per_ampere),
+            "inductance_h_per_mu_r": float(self.inductance_per_permeability),
+        }
 
 
 def core_geometry(core: str, *, stacking_factor=STACKING_FACTOR) -> CoreGeometry:
@@ -272,10 +314,19 @@ def core_geometry(core: str, *, stacking_factor=STACKING_FACTOR) -> CoreGeometry
         ``l_e = 0.0898 m``, ``a_e = 8.57e-6 m^2``.
     """
     rows = _rows(core, ": give the geometry with CoreGeometry.from_dimensions")
-    od, idia, h = (_value(rows, q) * INCH for q in ("core_outside_diameter", "core_inside_diameter", "core_height"))
-    return CoreGeometry.from_dimensions(_value(rows, "primary_turns"), od, idia, h, stacking_factor=stacking_factor,
-                                        r_winding_estimate=winding_resistance_estimate(core),
-                                        name=str(core).lower())
+    od, idia, h = (
+        _value(rows, q) * INCH
+        for q in ("core_outside_diameter", "core_inside_diameter", "core_height")
+    )
+    return CoreGeometry.from_dimensions(
+        _value(rows, "primary_turns"),
+        od,
+        idia,
+        h,
+        stacking_factor=stacking_factor,
+        r_winding_estimate=winding_resistance_estimate(core),
+        name=str(core).lower(),
+    )
 
 
 def appendix_a_ranges(core: str) -> dict[str, tuple[float, float | None, str]]:
@@ -323,7 +374,9 @@ def winding_resistance_estimate(core: str) -> float:
     An estimate to perhaps 30 %: the thesis prints no winding resistance.
     """
     rows = _rows(core, ": give the winding resistance explicitly")
-    od, idia, h = (_value(rows, q) for q in ("core_outside_diameter", "core_inside_diameter", "core_height"))
+    od, idia, h = (
+        _value(rows, q) for q in ("core_outside_diameter", "core_inside_diameter", "core_height")
+    )
     turns = _value(rows, "primary_turns")
     turn_m = 2.0 * ((od - idia) / 2.0 + h + 4.0 * CASE_ALLOWANCE_IN) * INCH
     return float(np.round(turns * turn_m * AWG34_OHM_PER_M, 1))

@@ -12,6 +12,7 @@ A user's CSV in the Appendix B schema goes through the same validation; any prob
 raises :class:`~fitdf.errors.DataError` with one line naming file, row, line and column.
 Column meanings and units are in ``datasets/README.md``.
 """
+
 from __future__ import annotations
 
 import csv
@@ -19,7 +20,7 @@ import difflib
 import io
 import os
 import re
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import resources
 from pathlib import Path
 
@@ -28,13 +29,34 @@ import pandas as pd
 
 from fitdf.errors import DataError
 
-__all__ = ["names", "load", "summary", "data_dir", "APPENDIX_B_COLUMNS",
-           "REQUIRED_COLUMNS", "TABLES", "CORES"]
+__all__ = [
+    "names",
+    "load",
+    "summary",
+    "data_dir",
+    "APPENDIX_B_COLUMNS",
+    "REQUIRED_COLUMNS",
+    "TABLES",
+    "CORES",
+]
 
 #: Column order of ``appendix_b.csv`` (the Appendix B schema).
-APPENDIX_B_COLUMNS = ("table", "graph", "core", "core_part", "source_impedance_ohm", "frequency_hz",
-                      "row_in_block", "input_v", "h1_output_v", "phase_lead_deg", "df_reported", "saturation",
-                      "df_factor_printed", "source")
+APPENDIX_B_COLUMNS = (
+    "table",
+    "graph",
+    "core",
+    "core_part",
+    "source_impedance_ohm",
+    "frequency_hz",
+    "row_in_block",
+    "input_v",
+    "h1_output_v",
+    "phase_lead_deg",
+    "df_reported",
+    "saturation",
+    "df_factor_printed",
+    "source",
+)
 #: Columns a user's CSV must have.
 REQUIRED_COLUMNS = ("input_v", "df_reported", "phase_lead_deg", "frequency_hz")
 #: Columns whose printed number of decimals :func:`load` records (as ``<column>_decimals``)
@@ -44,18 +66,56 @@ TABLES = ("B.1", "B.2", "B.3", "B.4", "B.5")
 CORES = ("permalloy", "deltamax", "supermalloy")
 _OTHER = ("table_5_1", "table_5_2", "table_3_1", "appendix_a", "eq_4_11")
 _OTHER_DTYPES = {
-    "table_5_1": {"core": str, "source_impedance_ohm": float, "system_gain": float, "amplitude_v": float,
-                  "frequency_hz": float, "omega_rad_s": float, "dies_out": bool, "source": str},
-    "table_3_1": {"material": str, "a1": float, "hc_inf": float, "hm_for_095": float, "source": str},
-    "appendix_a": {"core": str, "core_part": str, "quantity": str, "label_printed": str, "value_printed": str,
-                   "value_min": float, "value_max": float, "unit": str, "note": str, "source": str},
-    "eq_4_11": {"piece": int, "hm_min": float, "hm_max": float, "constant": float, "linear": float,
-                "cubic": float, "source": str},
+    "table_5_1": {
+        "core": str,
+        "source_impedance_ohm": float,
+        "system_gain": float,
+        "amplitude_v": float,
+        "frequency_hz": float,
+        "omega_rad_s": float,
+        "dies_out": bool,
+        "source": str,
+    },
+    "table_3_1": {
+        "material": str,
+        "a1": float,
+        "hc_inf": float,
+        "hm_for_095": float,
+        "source": str,
+    },
+    "appendix_a": {
+        "core": str,
+        "core_part": str,
+        "quantity": str,
+        "label_printed": str,
+        "value_printed": str,
+        "value_min": float,
+        "value_max": float,
+        "unit": str,
+        "note": str,
+        "source": str,
+    },
+    "eq_4_11": {
+        "piece": int,
+        "hm_min": float,
+        "hm_max": float,
+        "constant": float,
+        "linear": float,
+        "cubic": float,
+        "source": str,
+    },
 }
 _OTHER_DTYPES["table_5_2"] = _OTHER_DTYPES["table_5_1"]
 
-_FLOAT_COLUMNS = ("source_impedance_ohm", "frequency_hz", "input_v", "h1_output_v", "phase_lead_deg",
-                  "df_reported", "df_factor_printed")
+_FLOAT_COLUMNS = (
+    "source_impedance_ohm",
+    "frequency_hz",
+    "input_v",
+    "h1_output_v",
+    "phase_lead_deg",
+    "df_reported",
+    "df_factor_printed",
+)
 _TEXT_COLUMNS = ("table", "graph", "core", "core_part", "source")
 # ASCII only: float() also accepts "1_000", "inf" and non-ASCII digits, none of which a table prints.
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
@@ -131,8 +191,10 @@ def load(name_or_path) -> pd.DataFrame:
         looks_like_path = key.lower().endswith((".csv", ".txt")) or os.sep in key or "/" in key
         if looks_like_path:
             raise DataError(f"{key}: file not found (nor a bundled dataset: {', '.join(names())})")
-        raise DataError(f"unknown dataset {key!r} (neither a bundled name nor an existing file); "
-                        f"bundled datasets: {', '.join([*names(), 'appendix_b'])}")
+        raise DataError(
+            f"unknown dataset {key!r} (neither a bundled name nor an existing file); "
+            f"bundled datasets: {', '.join([*names(), 'appendix_b'])}"
+        )
     return read_csv(path)
 
 
@@ -154,9 +216,12 @@ def summary() -> pd.DataFrame:
     b = _bundled_appendix_b()
     keys = ["table", "graph", "core", "source_impedance_ohm", "frequency_hz"]
     out = b.groupby(keys, sort=False).agg(
-        rows=("input_v", "size"), saturation_rows=("saturation", "sum"),
+        rows=("input_v", "size"),
+        saturation_rows=("saturation", "sum"),
         missing_phase=("phase_lead_deg", lambda s: int(s.isna().sum())),
-        input_min_v=("input_v", "min"), input_max_v=("input_v", "max"))
+        input_min_v=("input_v", "min"),
+        input_max_v=("input_v", "max"),
+    )
     return out.reset_index()
 
 
@@ -170,7 +235,9 @@ def _read_bundled_bytes(filename: str) -> bytes:
 
 @lru_cache(maxsize=1)
 def _bundled_appendix_b() -> pd.DataFrame:
-    return _parse(_read_bundled_bytes("appendix_b.csv"), "appendix_b.csv", stem="appendix_b", bundled=True)
+    return _parse(
+        _read_bundled_bytes("appendix_b.csv"), "appendix_b.csv", stem="appendix_b", bundled=True
+    )
 
 
 def _subset(column: str, value: str) -> pd.DataFrame:
@@ -178,7 +245,7 @@ def _subset(column: str, value: str) -> pd.DataFrame:
     return b[b[column] == value].reset_index(drop=True)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _bundled_other(name: str) -> pd.DataFrame:
     dtypes = _OTHER_DTYPES[name]
     text = _read_bundled_bytes(f"{name}.csv").decode("utf-8")
@@ -219,7 +286,9 @@ def _records(raw: bytes, label: str):
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        _fail(label, f"not UTF-8 text (undecodable byte at offset {exc.start}); not a CSV text file")
+        _fail(
+            label, f"not UTF-8 text (undecodable byte at offset {exc.start}); not a CSV text file"
+        )
     reader = csv.reader(io.StringIO(text, newline=""), strict=True)
     records = []
     try:
@@ -235,8 +304,11 @@ def _records(raw: bytes, label: str):
     if len(names_) == 1:
         for sep, word in ((";", "semicolon"), ("\t", "tab"), ("|", "pipe")):
             if sep in header[0]:
-                _fail(label, f"line {header_line}: the header looks {word}-separated; fitdf reads comma-separated "
-                             "CSV")
+                _fail(
+                    label,
+                    f"line {header_line}: the header looks {word}-separated; fitdf reads comma-separated "
+                    "CSV",
+                )
     for i, n in enumerate(names_):
         if not n:
             _fail(label, f"line {header_line}: header column {i + 1} has no name")
@@ -247,8 +319,13 @@ def _records(raw: bytes, label: str):
         _fail(label, "no data rows below the header")
     for r, (line, fields) in enumerate(data, start=1):
         if len(fields) != len(names_):
-            _fail(label, f"{len(fields)} fields but the header has {len(names_)} (ragged rows; check the "
-                         "delimiter and quoting)", row=r, line=line)
+            _fail(
+                label,
+                f"{len(fields)} fields but the header has {len(names_)} (ragged rows; check the "
+                "delimiter and quoting)",
+                row=r,
+                line=line,
+            )
     return names_, data
 
 
@@ -268,7 +345,11 @@ def _check_columns(names_, label, bundled):
         if req not in names_:
             close = difflib.get_close_matches(req, unknown, n=1, cutoff=0.6)
             hint = f" (is {close[0]!r} a misspelling?)" if close else ""
-            _fail(label, f"missing required column{hint}; required: {', '.join(REQUIRED_COLUMNS)}", column=req)
+            _fail(
+                label,
+                f"missing required column{hint}; required: {', '.join(REQUIRED_COLUMNS)}",
+                column=req,
+            )
 
 
 def _decimals(cell: str) -> int:
@@ -309,8 +390,15 @@ def _parse(raw: bytes, label: str, *, stem: str, bundled: bool) -> pd.DataFrame:
         if col in out:
             frame[col] = out[col]
         elif col in _TEXT_COLUMNS:
-            frame[col] = cols[col] if col in cols else (
-                [f"{Path(label).name} line {line}" for line in lines] if col == "source" else [text_default[col]] * n)
+            frame[col] = (
+                cols[col]
+                if col in cols
+                else (
+                    [f"{Path(label).name} line {line}" for line in lines]
+                    if col == "source"
+                    else [text_default[col]] * n
+                )
+            )
         elif col == "saturation":
             frame[col] = _bools(cols.get(col), lines, label)
         elif col == "row_in_block":
@@ -334,13 +422,19 @@ def _check_values(out, lines, label, bundled):
         if col in out and np.isnan(out[col]).any():
             r = int(np.flatnonzero(np.isnan(out[col]))[0])
             _fail(label, "value required but the cell is empty", r + 1, lines[r], col)
-    rules = (("input_v", lambda v: v > 0, "amplitude must be positive"),
-             ("frequency_hz", lambda v: v > 0, "frequency must be positive"),
-             ("h1_output_v", lambda v: v >= 0, "output amplitude must not be negative"),
-             ("df_reported", lambda v: v >= 0, "describing-function magnitude must not be negative"),
-             ("phase_lead_deg", lambda v: (v > -180) & (v <= 180), "phase must lie in (-180, 180] degrees"),
-             ("source_impedance_ohm", lambda v: v >= 0, "source impedance must not be negative"),
-             ("df_factor_printed", lambda v: v > 0, "DF factor must be positive"))
+    rules = (
+        ("input_v", lambda v: v > 0, "amplitude must be positive"),
+        ("frequency_hz", lambda v: v > 0, "frequency must be positive"),
+        ("h1_output_v", lambda v: v >= 0, "output amplitude must not be negative"),
+        ("df_reported", lambda v: v >= 0, "describing-function magnitude must not be negative"),
+        (
+            "phase_lead_deg",
+            lambda v: (v > -180) & (v <= 180),
+            "phase must lie in (-180, 180] degrees",
+        ),
+        ("source_impedance_ohm", lambda v: v >= 0, "source impedance must not be negative"),
+        ("df_factor_printed", lambda v: v > 0, "DF factor must be positive"),
+    )
     for col, ok, problem in rules:
         if col not in out:
             continue
@@ -369,7 +463,13 @@ def _row_in_block(cells, frame, lines, label):
         values = []
         for r, cell in enumerate(cells):
             if not re.fullmatch(r"\d{1,9}", cell, re.ASCII) or int(cell) < 1:
-                _fail(label, f"{_show(cell)} is not a positive integer", r + 1, lines[r], "row_in_block")
+                _fail(
+                    label,
+                    f"{_show(cell)} is not a positive integer",
+                    r + 1,
+                    lines[r],
+                    "row_in_block",
+                )
             values.append(int(cell))
         return np.array(values, dtype=np.int64)
     keys = frame[["table", "source_impedance_ohm", "frequency_hz"]]
@@ -377,10 +477,23 @@ def _row_in_block(cells, frame, lines, label):
 
 
 def _check_duplicates(frame, lines, label):
-    key = ["table", "frequency_hz", "input_v", "df_reported", "phase_lead_deg", "source_impedance_ohm"]
+    key = [
+        "table",
+        "frequency_hz",
+        "input_v",
+        "df_reported",
+        "phase_lead_deg",
+        "source_impedance_ohm",
+    ]
     dup = frame.duplicated(key, keep="first").to_numpy()
     if dup.any():
         r = int(np.flatnonzero(dup)[0])
         first = int(np.flatnonzero((frame[key] == frame.loc[r, key]).all(axis=1).to_numpy())[0])
-        _fail(label, f"duplicates row {first + 1} (line {lines[first]}): same table, frequency, input, DF, phase "
-                     "and source impedance", r + 1, lines[r], "input_v")
+        _fail(
+            label,
+            f"duplicates row {first + 1} (line {lines[first]}): same table, frequency, input, DF, phase "
+            "and source impedance",
+            r + 1,
+            lines[r],
+            "input_v",
+        )

@@ -3,6 +3,7 @@
 The measured describing function is ``DF * exp(j * phase_lead)`` (Appendix B): a lead is a
 positive angle, the same sign convention as the models' ``N`` (a lag is negative).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -29,8 +30,11 @@ class NoiseModel:
     floor: float = 0.01
 
     def to_dict(self):
-        return {"sigma_magnitude": self.sigma_magnitude, "sigma_phase_deg": self.sigma_phase_deg,
-                "floor": self.floor}
+        return {
+            "sigma_magnitude": self.sigma_magnitude,
+            "sigma_phase_deg": self.sigma_phase_deg,
+            "floor": self.floor,
+        }
 
 
 @dataclass(frozen=True)
@@ -54,7 +58,7 @@ class FitData:
         return list(dict.fromkeys(self.group.tolist()))
 
     @classmethod
-    def from_frame(cls, frame: pd.DataFrame, label: str = "") -> "FitData":
+    def from_frame(cls, frame: pd.DataFrame, label: str = "") -> FitData:
         """Arrays from a validated dataset frame (rows already selected by the audit policy)."""
         need = ["input_v", "frequency_hz", "df_reported", "phase_lead_deg"]
         missing = [c for c in need if c not in frame.columns]
@@ -63,9 +67,19 @@ class FitData:
         frame = frame.dropna(subset=need).reset_index(drop=True)
         if frame.empty:
             raise DataError(f"{label or 'data'}: no rows left to fit after the row policy")
-        rs = frame["source_impedance_ohm"] if "source_impedance_ohm" in frame else pd.Series(0.0, index=frame.index)
-        group = frame["table"].astype(str) if "table" in frame else pd.Series(label or "data", index=frame.index)
-        measured = frame["df_reported"].to_numpy(float) * np.exp(1j * np.deg2rad(frame["phase_lead_deg"].to_numpy(float)))
+        rs = (
+            frame["source_impedance_ohm"]
+            if "source_impedance_ohm" in frame
+            else pd.Series(0.0, index=frame.index)
+        )
+        group = (
+            frame["table"].astype(str)
+            if "table" in frame
+            else pd.Series(label or "data", index=frame.index)
+        )
+        measured = frame["df_reported"].to_numpy(float) * np.exp(
+            1j * np.deg2rad(frame["phase_lead_deg"].to_numpy(float))
+        )
         return cls(
             amplitude=frame["input_v"].to_numpy(float),
             frequency=frame["frequency_hz"].to_numpy(float),
@@ -76,7 +90,14 @@ class FitData:
             label=label,
         )
 
-    def subset(self, mask) -> "FitData":
+    def subset(self, mask) -> FitData:
         mask = np.asarray(mask, bool)
-        return FitData(self.amplitude[mask], self.frequency[mask], self.source_impedance[mask],
-                       self.measured[mask], self.group[mask], self.rows[mask].reset_index(drop=True), self.label)
+        return FitData(
+            self.amplitude[mask],
+            self.frequency[mask],
+            self.source_impedance[mask],
+            self.measured[mask],
+            self.group[mask],
+            self.rows[mask].reset_index(drop=True),
+            self.label,
+        )

@@ -1,4 +1,5 @@
 """The public fitting entry point: data + model + chain + method -> result."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,16 +9,18 @@ import pandas as pd
 from fitdf.data import audit, datasets
 from fitdf.data.fitdata import FitData, NoiseModel
 from fitdf.errors import DataError, OptionError
-from fitdf.inference.problem import FitProblem
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.mcmc import fit_mcmc
+from fitdf.inference.problem import FitProblem
 
 __all__ = ["fit", "resolve_data", "METHODS"]
 
 METHODS = ("lsq", "mcmc")
 
 
-def resolve_data(data, policy: str = "default", source_impedance=None, label: str | None = None) -> FitData:
+def resolve_data(
+    data, policy: str = "default", source_impedance=None, label: str | None = None
+) -> FitData:
     """Rows to fit from a dataset name, core name, CSV path, DataFrame or FitData.
 
     The audit's row ``policy`` ("default", "all" or "strict", see datasets/README.md)
@@ -32,15 +35,21 @@ def resolve_data(data, policy: str = "default", source_impedance=None, label: st
         frame = data
         label = label or "data"
     else:
-        raise OptionError(f"cannot fit data of type {type(data).__name__}; give a dataset name, path or DataFrame")
+        raise OptionError(
+            f"cannot fit data of type {type(data).__name__}; give a dataset name, path or DataFrame"
+        )
     if source_impedance is not None:
         if "source_impedance_ohm" not in frame:
-            raise OptionError("--source-impedance given but the data have no source_impedance_ohm column")
+            raise OptionError(
+                "--source-impedance given but the data have no source_impedance_ohm column"
+            )
         available = sorted(frame["source_impedance_ohm"].unique().tolist())
         frame = frame[frame["source_impedance_ohm"] == float(source_impedance)]
         if frame.empty:
-            raise OptionError(f"{label}: no rows at source impedance {source_impedance:g} ohm "
-                              f"(available: {', '.join(f'{a:g}' for a in available)})")
+            raise OptionError(
+                f"{label}: no rows at source impedance {source_impedance:g} ohm "
+                f"(available: {', '.join(f'{a:g}' for a in available)})"
+            )
         label = f"{label} @ {float(source_impedance):g} ohm"
     selected = audit.select_rows(audit.audit(frame), policy)
     if selected.empty:
@@ -48,10 +57,22 @@ def resolve_data(data, policy: str = "default", source_impedance=None, label: st
     return FitData.from_frame(selected, label)
 
 
-def fit(data, model, chain: str = "winding", method: str = "lsq", seed: int = 0, policy: str = "default",
-        source_impedance=None, noise: NoiseModel | None = None, fixed: dict | None = None,
-        n_starts: int = 6, n_steps: int = 1000, max_steps: int | None = 5000, n_walkers: int | None = None,
-        progress: bool = False):
+def fit(
+    data,
+    model,
+    chain: str = "winding",
+    method: str = "lsq",
+    seed: int = 0,
+    policy: str = "default",
+    source_impedance=None,
+    noise: NoiseModel | None = None,
+    fixed: dict | None = None,
+    n_starts: int = 6,
+    n_steps: int = 1000,
+    max_steps: int | None = 5000,
+    n_walkers: int | None = None,
+    progress: bool = False,
+):
     """Fit one model seen through one measurement chain.
 
     Parameters
@@ -85,5 +106,12 @@ def fit(data, model, chain: str = "winding", method: str = "lsq", seed: int = 0,
     result = fit_lsq(problem, seed=seed, n_starts=n_starts)
     if method == "lsq":
         return result
-    return fit_mcmc(problem, result, seed=seed, n_steps=n_steps, max_steps=max_steps, n_walkers=n_walkers,
-                    progress=progress)
+    return fit_mcmc(
+        problem,
+        result,
+        seed=seed,
+        n_steps=n_steps,
+        max_steps=max_steps,
+        n_walkers=n_walkers,
+        progress=progress,
+    )

@@ -5,6 +5,7 @@ starting guess) are evaluated in *one* batched call, the ``n_starts`` best are p
 with lmfit's trust-region least squares, and the result reports which start won and how
 many polished starts agree with it (chi-square within 1 of the best).
 """
+
 from __future__ import annotations
 
 import warnings
@@ -14,8 +15,8 @@ import numpy as np
 import pandas as pd
 from scipy.stats import qmc
 
-from fitdf.inference.problem import FitProblem
 from fitdf.inference.metrics import information_criteria, residual_metrics
+from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, residual_table
 
 __all__ = ["fit_lsq"]
@@ -54,15 +55,22 @@ def _polish(problem: FitProblem, start, max_nfev: int):
 def _uncertainties(problem: FitProblem, x, covar):
     names = problem.names
     stderr, intervals = {}, {}
-    sig = np.sqrt(np.clip(np.diag(covar), 0, None)) if covar is not None else np.full(len(x), np.nan)
+    sig = (
+        np.sqrt(np.clip(np.diag(covar), 0, None)) if covar is not None else np.full(len(x), np.nan)
+    )
     for i, s in enumerate(problem.specs):
         value = float(s.from_internal(x[i]))
         stderr[s.name] = float(np.log(10) * value * sig[i]) if s.log else float(sig[i])
         # Gaussian in the internal coordinate, cut at the declared bounds (a parameter pinned
         # on a bound has a meaningless covariance; its interval is then the bound-limited one).
         lo, hi = s.internal_bounds
-        q = {"p2.5": x[i] - _Z95 * sig[i], "p16": x[i] - sig[i], "p50": x[i],
-             "p84": x[i] + sig[i], "p97.5": x[i] + _Z95 * sig[i]}
+        q = {
+            "p2.5": x[i] - _Z95 * sig[i],
+            "p16": x[i] - sig[i],
+            "p50": x[i],
+            "p84": x[i] + sig[i],
+            "p97.5": x[i] + _Z95 * sig[i],
+        }
         intervals[s.name] = {k: float(s.from_internal(np.clip(v, lo, hi))) for k, v in q.items()}
     if covar is not None:
         d = np.where(sig > 0, sig, np.nan)
@@ -78,14 +86,19 @@ def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
         lo, hi = s.internal_bounds
         tol = rel * (hi - lo)
         if x[i] - lo < tol:
-            out.append(f"parameter {s.name} sits on its lower bound {s.bounds[0]:g} {s.unit}".rstrip())
+            out.append(
+                f"parameter {s.name} sits on its lower bound {s.bounds[0]:g} {s.unit}".rstrip()
+            )
         elif hi - x[i] < tol:
-            out.append(f"parameter {s.name} sits on its upper bound {s.bounds[1]:g} {s.unit}".rstrip())
+            out.append(
+                f"parameter {s.name} sits on its upper bound {s.bounds[1]:g} {s.unit}".rstrip()
+            )
     return out
 
 
-def fit_lsq(problem: FitProblem, seed: int = 0, n_starts: int = 6, n_screen: int = 256,
-            max_nfev: int = 400) -> FitResult:
+def fit_lsq(
+    problem: FitProblem, seed: int = 0, n_starts: int = 6, n_screen: int = 256, max_nfev: int = 400
+) -> FitResult:
     """Least-squares fit of ``problem`` (see the module docstring for the strategy).
 
     Returns
@@ -107,21 +120,47 @@ def fit_lsq(problem: FitProblem, seed: int = 0, n_starts: int = 6, n_screen: int
     values = {k: float(v) for k, v in problem.full_natural(x).items()}
     predicted = problem.predict(x)
     wres = problem.weighted_residuals(x)
-    metrics = {"n_points": problem.data.n, "n_params": problem.ndim,
-               **residual_metrics(predicted, problem.data.measured),
-               **information_criteria(wres, problem.ndim)}
+    metrics = {
+        "n_points": problem.data.n,
+        "n_params": problem.ndim,
+        **residual_metrics(predicted, problem.data.measured),
+        **information_criteria(wres, problem.ndim),
+    }
     warns = bound_warnings(problem, x)
     if covar is None:
         warns.append("covariance matrix not available (singular Jacobian): uncertainties are NaN")
     if not out.success:
         warns.append(f"least squares did not converge: {out.message}")
     if n_agree < 2 and len(starts) > 1:
-        warns.append(f"only the winning start reached the best chi-square (of {len(starts)} starts)")
-    info = {"seed": seed, "n_screen": n_screen, "n_starts": len(starts), "starts_chi2": costs.tolist(),
-            "best_start": best, "n_agree": n_agree, "nfev": int(out.nfev), "success": bool(out.success),
-            "noise": problem.noise.to_dict(), "fixed": dict(problem.fixed),
-            "covar_internal": None if covar is None else np.asarray(covar).tolist()}
-    return FitResult(model=problem.model.name, chain=problem.chain.name, method="lsq", label=problem.data.label,
-                     values=values, stderr=stderr, intervals=intervals, correlations=corr, metrics=metrics,
-                     residuals=residual_table(problem, predicted), warnings=warns, info=info,
-                     problem=problem, internal=x)
+        warns.append(
+            f"only the winning start reached the best chi-square (of {len(starts)} starts)"
+        )
+    info = {
+        "seed": seed,
+        "n_screen": n_screen,
+        "n_starts": len(starts),
+        "starts_chi2": costs.tolist(),
+        "best_start": best,
+        "n_agree": n_agree,
+        "nfev": int(out.nfev),
+        "success": bool(out.success),
+        "noise": problem.noise.to_dict(),
+        "fixed": dict(problem.fixed),
+        "covar_internal": None if covar is None else np.asarray(covar).tolist(),
+    }
+    return FitResult(
+        model=problem.model.name,
+        chain=problem.chain.name,
+        method="lsq",
+        label=problem.data.label,
+        values=values,
+        stderr=stderr,
+        intervals=intervals,
+        correlations=corr,
+        metrics=metrics,
+        residuals=residual_table(problem, predicted),
+        warnings=warns,
+        info=info,
+        problem=problem,
+        internal=x,
+    )

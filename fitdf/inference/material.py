@@ -46,6 +46,7 @@ geometry's stacking factor and mean path length are themselves assumptions
 through the winding chain: a law fitted through the ``direct`` chain describes a
 dimensionless ratio and has no material constants.
 """
+
 from __future__ import annotations
 
 import math
@@ -57,10 +58,19 @@ from fitdf.data.cores import CoreGeometry
 from fitdf.errors import ModelError, OptionError
 
 __all__ = [
-    "MaterialConstants", "material_constants", "loop_landmarks", "appendix_a_check",
-    "inductance_from_permeability", "permeability_from_inductance", "current_from_field",
-    "field_from_current", "flux_linkage_from_induction", "induction_from_flux_linkage",
-    "SMALL_SIGNAL_RATIO", "RESISTANCE_TOLERANCE", "CHECK_QUANTITIES",
+    "MaterialConstants",
+    "material_constants",
+    "loop_landmarks",
+    "appendix_a_check",
+    "inductance_from_permeability",
+    "permeability_from_inductance",
+    "current_from_field",
+    "field_from_current",
+    "flux_linkage_from_induction",
+    "induction_from_flux_linkage",
+    "SMALL_SIGNAL_RATIO",
+    "RESISTANCE_TOLERANCE",
+    "CHECK_QUANTITIES",
 ]
 
 #: Amplitude, relative to ``current_max``, at which ``Re N`` is taken as the small-signal limit.
@@ -73,8 +83,13 @@ _CONVERGENCE_TOL = 1e-2
 RESISTANCE_TOLERANCE = 0.3
 #: Rows of :func:`appendix_a_check`, named as in ``datasets/appendix_a.csv`` (plus the resistance).
 CHECK_QUANTITIES = (
-    "initial_permeability", "maximum_permeability", "coercive_force_Hc",
-    "peak_flux_density_Bp", "residual_induction_Br", "squareness_Br_over_Bp", "winding_resistance",
+    "initial_permeability",
+    "maximum_permeability",
+    "coercive_force_Hc",
+    "peak_flux_density_Bp",
+    "residual_induction_Br",
+    "squareness_Br_over_Bp",
+    "winding_resistance",
 )
 
 # Amplitude grid of the maximum-permeability search: a geometric first pass over
@@ -105,8 +120,10 @@ def _model_name(model):
 def _frequency(model, frequency):
     if frequency is None:
         if getattr(model, "frequency_dependent", False):
-            raise OptionError(f"model {_model_name(model)!r} depends on frequency: give the frequency "
-                              "(e.g. the lowest frequency of the data)")
+            raise OptionError(
+                f"model {_model_name(model)!r} depends on frequency: give the frequency "
+                "(e.g. the lowest frequency of the data)"
+            )
         return 0.0
     f = float(frequency)
     if not (math.isfinite(f) and f >= 0):
@@ -146,7 +163,9 @@ def loop_landmarks(model, amplitudes, frequency=0.0, **theta):
     a = np.atleast_1d(np.asarray(amplitudes, dtype=float))
     if a.ndim != 1 or np.any(~np.isfinite(a)) or np.any(a <= 0):
         raise OptionError("amplitudes must be a 1-D array of positive finite currents")
-    ends = model.ascending_branch(np.stack([-a, np.zeros_like(a), a], axis=1), a[:, None], frequency, **theta)
+    ends = model.ascending_branch(
+        np.stack([-a, np.zeros_like(a), a], axis=1), a[:, None], frequency, **theta
+    )
     ends = np.broadcast_to(np.asarray(ends, dtype=float), (a.size, 3))
     bottom, at_zero, tip = ends[:, 0], ends[:, 1], ends[:, 2]
     crosses = (bottom < 0) & (tip > 0)
@@ -157,8 +176,10 @@ def loop_landmarks(model, amplitudes, frequency=0.0, **theta):
     for _ in range(_ZERO_STAGES):
         x = lo[:, None] + (hi - lo)[:, None] * t
         x[:, -1] = hi  # keep the bracket's end exact
-        y = np.broadcast_to(np.asarray(model.ascending_branch(x, a[:, None], frequency, **theta), dtype=float),
-                            x.shape)
+        y = np.broadcast_to(
+            np.asarray(model.ascending_branch(x, a[:, None], frequency, **theta), dtype=float),
+            x.shape,
+        )
         j = np.argmax(y >= 0, axis=1)  # first grid point at or above zero
         j = np.clip(j, 1, _ZERO_GRID - 1)  # y[:, 0] < 0 wherever a crossing exists
         lo, hi = x[rows, j - 1], x[rows, j]
@@ -276,8 +297,16 @@ class MaterialConstants:
         return out
 
 
-def material_constants(model, theta, geometry: CoreGeometry, *, current_max, frequency=None,
-                       winding_resistance=None, winding_resistance_estimate=None) -> MaterialConstants:
+def material_constants(
+    model,
+    theta,
+    geometry: CoreGeometry,
+    *,
+    current_max,
+    frequency=None,
+    winding_resistance=None,
+    winding_resistance_estimate=None,
+) -> MaterialConstants:
     """Material constants of a fitted law on a given core (see the module docstring).
 
     Parameters
@@ -318,13 +347,19 @@ def material_constants(model, theta, geometry: CoreGeometry, *, current_max, fre
 
     # Initial permeability: Re N at 1e-6 and 1e-5 of current_max, in one call.
     small = np.array([SMALL_SIGNAL_RATIO, 10.0 * SMALL_SIGNAL_RATIO]) * i_max
-    re_n = np.broadcast_to(np.real(np.asarray(model.describing_function(small, f, **kw))), small.shape)
+    re_n = np.broadcast_to(
+        np.real(np.asarray(model.describing_function(small, f, **kw))), small.shape
+    )
     l0, l1 = float(re_n[0]), float(re_n[1])
     change = 0.0 if l0 == l1 else (abs(l1 - l0) / abs(l0) if l0 != 0 else math.inf)
 
     l_max, a_at_max = _maximum_amplitude_inductance(model, i_max, f, kw)
     marks = loop_landmarks(model, [i_max], f, **kw)
-    tip, residual, hc = float(marks["tip"][0]), float(marks["residual"][0]), float(marks["coercive"][0])
+    tip, residual, hc = (
+        float(marks["tip"][0]),
+        float(marks["residual"][0]),
+        float(marks["coercive"][0]),
+    )
 
     if winding_resistance is None:
         winding_resistance = theta.get("r_winding") if hasattr(theta, "get") else None
@@ -332,20 +367,30 @@ def material_constants(model, theta, geometry: CoreGeometry, *, current_max, fre
         winding_resistance_estimate = geometry.r_winding_estimate
     nan = float("nan")
     return MaterialConstants(
-        model=_model_name(model), frequency_hz=f, current_max_a=i_max,
-        initial_inductance_h=l0, initial_permeability=float(geometry.relative_permeability(l0)),
-        initial_relative_change=float(change), initial_converged=bool(change <= _CONVERGENCE_TOL),
-        maximum_inductance_h=l_max, maximum_permeability=float(geometry.relative_permeability(l_max)),
-        maximum_amplitude_a=a_at_max, maximum_at_edge=bool(a_at_max >= i_max * (1.0 - 1e-9)),
-        coercive_current_a=hc, coercive_force_a_per_m=float(geometry.field(hc)),
+        model=_model_name(model),
+        frequency_hz=f,
+        current_max_a=i_max,
+        initial_inductance_h=l0,
+        initial_permeability=float(geometry.relative_permeability(l0)),
+        initial_relative_change=float(change),
+        initial_converged=bool(change <= _CONVERGENCE_TOL),
+        maximum_inductance_h=l_max,
+        maximum_permeability=float(geometry.relative_permeability(l_max)),
+        maximum_amplitude_a=a_at_max,
+        maximum_at_edge=bool(a_at_max >= i_max * (1.0 - 1e-9)),
+        coercive_current_a=hc,
+        coercive_force_a_per_m=float(geometry.field(hc)),
         coercive_force_oe=float(geometry.field_oe(hc)),
-        peak_flux_linkage_vs=tip, peak_flux_density_t=float(geometry.induction(tip)),
+        peak_flux_linkage_vs=tip,
+        peak_flux_density_t=float(geometry.induction(tip)),
         peak_flux_density_gauss=float(geometry.induction_gauss(tip)),
-        residual_flux_linkage_vs=residual, residual_induction_t=float(geometry.induction(residual)),
+        residual_flux_linkage_vs=residual,
+        residual_induction_t=float(geometry.induction(residual)),
         residual_induction_gauss=float(geometry.induction_gauss(residual)),
         squareness=residual / tip if tip != 0 else nan,
         winding_resistance_ohm=nan if winding_resistance is None else float(winding_resistance),
-        winding_resistance_estimate_ohm=nan if winding_resistance_estimate is None
+        winding_resistance_estimate_ohm=nan
+        if winding_resistance_estimate is None
         else float(winding_resistance_estimate),
         geometry=geometry,
     )
@@ -377,14 +422,21 @@ def appendix_a_check(constants, ranges, *, resistance_tolerance=RESISTANCE_TOLER
         high`` with both edges included, False for NaN. The ``winding_resistance`` row
         appears only when both a fitted value and an estimate (or range) are known.
     """
-    values = constants.appendix_a_values() if hasattr(constants, "appendix_a_values") else dict(constants)
+    values = (
+        constants.appendix_a_values()
+        if hasattr(constants, "appendix_a_values")
+        else dict(constants)
+    )
     ranges = dict(ranges)
     if "winding_resistance" not in ranges:
         est = values.get("winding_resistance_estimate")
         if est is not None and math.isfinite(float(est)):
             est = float(est)
-            ranges["winding_resistance"] = (est * (1.0 - resistance_tolerance), est * (1.0 + resistance_tolerance),
-                                            "ohm")
+            ranges["winding_resistance"] = (
+                est * (1.0 - resistance_tolerance),
+                est * (1.0 + resistance_tolerance),
+                "ohm",
+            )
     rows = []
     for quantity in CHECK_QUANTITIES:
         if quantity not in ranges:
@@ -397,12 +449,21 @@ def appendix_a_check(constants, ranges, *, resistance_tolerance=RESISTANCE_TOLER
         low = float(low)
         high = None if high is None or not math.isfinite(float(high)) else float(high)
         inside = bool(math.isfinite(fitted) and low <= fitted and (high is None or fitted <= high))
-        rows.append({"quantity": quantity, "fitted": fitted, "low": low, "high": high, "unit": str(unit),
-                     "inside": inside})
+        rows.append(
+            {
+                "quantity": quantity,
+                "fitted": fitted,
+                "low": low,
+                "high": high,
+                "unit": str(unit),
+                "inside": inside,
+            }
+        )
     return rows
 
 
 # --- material units -> winding units (for bounds in material units), and back -----------------
+
 
 def inductance_from_permeability(mu_r, geometry: CoreGeometry):
     """Winding inductance (H) of a relative permeability (gauss/oersted): ``mu_0 mu_r N^2 A_e / l_e``."""

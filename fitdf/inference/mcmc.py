@@ -22,6 +22,7 @@ Point estimate
     posterior percentiles (a warning says when the per-parameter medians fit far worse,
     the sign of a multimodal posterior).
 """
+
 from __future__ import annotations
 
 import warnings
@@ -31,11 +32,12 @@ import emcee
 import numpy as np
 import pandas as pd
 
-from fitdf.inference.problem import FitProblem
 from fitdf.inference.metrics import information_criteria, residual_metrics
+from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, PosteriorResult, residual_table
 
 __all__ = ["fit_mcmc", "default_moves", "LogPosterior", "NOISE_BOUNDS"]
+
 
 def default_moves():
     """Differential-evolution moves: the posteriors here are correlated and skewed (winding
@@ -83,7 +85,10 @@ def _initial_ball(problem, lsq: FitResult, n_walkers, rng, bounds):
     scale = np.full(P + 2, 1e-3) * width
     if cov is not None:
         # a ball of the least-squares size shortens the burn-in (walkers need not expand first)
-        scale[:P] = np.minimum(0.5 * np.sqrt(np.clip(np.diag(cov), 0, None)), 0.02 * width[:P]) + 1e-6 * width[:P]
+        scale[:P] = (
+            np.minimum(0.5 * np.sqrt(np.clip(np.diag(cov), 0, None)), 0.02 * width[:P])
+            + 1e-6 * width[:P]
+        )
     scale[P:] = 0.02
     p0 = centre + scale * rng.standard_normal((n_walkers, P + 2))
     return np.clip(p0, lo + 1e-9 * width, hi - 1e-9 * width)
@@ -104,29 +109,50 @@ def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
         full = az.from_dict(posterior=as_posterior(post_burn))
         rhat = az.rhat(full)
         ess = az.ess(full)
-        idata = az.from_dict(posterior=as_posterior(loo_draws),
-                             log_likelihood={"df": np.swapaxes(loglik, 0, 1)})
+        idata = az.from_dict(
+            posterior=as_posterior(loo_draws), log_likelihood={"df": np.swapaxes(loglik, 0, 1)}
+        )
         loo = az.loo(idata, pointwise=True)
         waic = az.waic(idata)
     # ArviZ's shape heuristic complains when walkers outnumber the (thinned) draws; that is expected here.
-    caught = sorted({str(x.message).split("\n")[0] for x in w if "More chains" not in str(x.message)
-                     and "refactor" not in str(x.message)})
+    caught = sorted(
+        {
+            str(x.message).split("\n")[0]
+            for x in w
+            if "More chains" not in str(x.message) and "refactor" not in str(x.message)
+        }
+    )
     pareto_k = np.asarray(loo.pareto_k)
     return {
         "rhat": {n: float(rhat[n]) for n in names},
         "ess_bulk": {n: float(ess[n]) for n in names},
-        "elpd_loo": float(loo.elpd_loo), "elpd_loo_se": float(loo.se), "p_loo": float(loo.p_loo),
-        "looic": float(-2 * loo.elpd_loo), "looic_se": float(2 * loo.se),
-        "elpd_waic": float(waic.elpd_waic), "elpd_waic_se": float(waic.se),
-        "waic": float(-2 * waic.elpd_waic), "waic_se": float(2 * waic.se),
-        "pareto_k_max": float(np.max(pareto_k)), "n_pareto_k_bad": int(np.sum(pareto_k > 0.7)),
+        "elpd_loo": float(loo.elpd_loo),
+        "elpd_loo_se": float(loo.se),
+        "p_loo": float(loo.p_loo),
+        "looic": float(-2 * loo.elpd_loo),
+        "looic_se": float(2 * loo.se),
+        "elpd_waic": float(waic.elpd_waic),
+        "elpd_waic_se": float(waic.se),
+        "waic": float(-2 * waic.elpd_waic),
+        "waic_se": float(2 * waic.se),
+        "pareto_k_max": float(np.max(pareto_k)),
+        "n_pareto_k_bad": int(np.sum(pareto_k > 0.7)),
         "pointwise_elpd_loo": np.asarray(loo.loo_i).tolist(),
     }, caught
 
 
-def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int | None = None,
-             n_steps: int = 1500, progress: bool = False, max_loo_draws: int = 1000,
-             moves=None, max_steps: int | None = None, check_every: int = 250) -> PosteriorResult:
+def fit_mcmc(
+    problem: FitProblem,
+    lsq: FitResult,
+    seed: int = 0,
+    n_walkers: int | None = None,
+    n_steps: int = 1500,
+    progress: bool = False,
+    max_loo_draws: int = 1000,
+    moves=None,
+    max_steps: int | None = None,
+    check_every: int = 250,
+) -> PosteriorResult:
     """Sample the posterior of ``problem`` starting from the least-squares result ``lsq``.
 
     Runs at least ``n_steps`` steps, then keeps going in blocks of ``check_every`` until the
@@ -135,7 +161,9 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     seed still fixes the result.
     """
     rng = np.random.default_rng(seed)
-    problem.set_warm_start(lsq.internal)  # walkers stay near the optimum: its currents start the solver
+    problem.set_warm_start(
+        lsq.internal
+    )  # walkers stay near the optimum: its currents start the solver
     logpost = LogPosterior(problem)
     P = problem.ndim
     ndim = P + 2
@@ -149,7 +177,9 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     state = sampler.run_mcmc(p0, n_steps, progress=progress)
     tau = sampler.get_autocorr_time(tol=0)
     while sampler.iteration < max_steps and sampler.iteration < 50 * np.nanmax(tau):
-        state = sampler.run_mcmc(state, min(check_every, max_steps - sampler.iteration), progress=progress)
+        state = sampler.run_mcmc(
+            state, min(check_every, max_steps - sampler.iteration), progress=progress
+        )
         tau = sampler.get_autocorr_time(tol=0)
     n_steps = sampler.iteration
 
@@ -166,26 +196,38 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     loo_draws = samples[::step] if samples.shape[0] >= 2 * step else samples
     loglik = logpost.pointwise(loo_draws)  # (draws, walkers, n)
     diag, caught = _arviz_diagnostics(post_burn, names, loo_draws, loglik)
-    diag.update({"tau": dict(zip(names, map(float, tau))), "n_steps": n_steps, "n_walkers": n_walkers,
-                 "burn": burn, "thin": thin, "steps_over_tau": float(n_steps / tau_max),
-                 "acceptance_mean": float(np.mean(sampler.acceptance_fraction)),
-                 "acceptance_min": float(np.min(sampler.acceptance_fraction)),
-                 "n_draws": int(flat.shape[0])})
+    diag.update(
+        {
+            "tau": dict(zip(names, map(float, tau))),
+            "n_steps": n_steps,
+            "n_walkers": n_walkers,
+            "burn": burn,
+            "thin": thin,
+            "steps_over_tau": float(n_steps / tau_max),
+            "acceptance_mean": float(np.mean(sampler.acceptance_fraction)),
+            "acceptance_min": float(np.min(sampler.acceptance_fraction)),
+            "n_draws": int(flat.shape[0]),
+        }
+    )
     # Rank-normalised R-hat < 1.01 is the modern target; walkers of one ensemble are not independent,
     # so 1.05 is used as the warning threshold, together with the 50 tau rule.
     diag["converged"] = bool(diag["steps_over_tau"] >= 50 and max(diag["rhat"].values()) < 1.05)
 
     warns = []
     if diag["steps_over_tau"] < 50:
-        warns.append(f"chain of {n_steps} steps is shorter than 50 autocorrelation times "
-                     f"(max tau {tau_max:.0f}); run more --steps")
+        warns.append(
+            f"chain of {n_steps} steps is shorter than 50 autocorrelation times "
+            f"(max tau {tau_max:.0f}); run more --steps"
+        )
     if max(diag["rhat"].values()) >= 1.05:
         worst = max(diag["rhat"], key=diag["rhat"].get)
         warns.append(f"R-hat {diag['rhat'][worst]:.3f} for {worst} (>= 1.05)")
     if not 0.1 <= diag["acceptance_mean"] <= 0.9:
         warns.append(f"mean acceptance fraction {diag['acceptance_mean']:.2f} outside 0.1-0.9")
     if diag["n_pareto_k_bad"]:
-        warns.append(f"PSIS-LOO: {diag['n_pareto_k_bad']} rows with Pareto k > 0.7 (LOO unreliable there)")
+        warns.append(
+            f"PSIS-LOO: {diag['n_pareto_k_bad']} rows with Pareto k > 0.7 (LOO unreliable there)"
+        )
     warns += [f"ArviZ: {c}" for c in caught if "pareto" not in c.lower()]
 
     nat = problem.to_natural(flat[:, :P])
@@ -198,8 +240,10 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
     chi2_point = float(np.sum(problem.weighted_residuals(point) ** 2))
     chi2_median = float(np.sum(problem.weighted_residuals(median_internal) ** 2))
     if chi2_median > chi2_point + 2 * P + 10:
-        warns.append(f"posterior is multimodal or strongly skewed: the per-parameter medians fit far worse "
-                     f"(chi2 {chi2_median:.0f}) than the best draw (chi2 {chi2_point:.0f}); values are the best draw")
+        warns.append(
+            f"posterior is multimodal or strongly skewed: the per-parameter medians fit far worse "
+            f"(chi2 {chi2_median:.0f}) than the best draw (chi2 {chi2_point:.0f}); values are the best draw"
+        )
     values = {k: float(v) for k, v in problem.full_natural(point).items()}
     intervals = {}
     for i, s in enumerate(problem.specs):
@@ -209,20 +253,48 @@ def fit_mcmc(problem: FitProblem, lsq: FitResult, seed: int = 0, n_walkers: int 
         q = np.percentile(10 ** flat[:, P + j], [2.5, 16, 50, 84, 97.5])
         diag[f"{n}_interval"] = dict(zip(["p2.5", "p16", "p50", "p84", "p97.5"], map(float, q)))
     stderr = {s.name: float(np.std(nat[:, i])) for i, s in enumerate(problem.specs)}
-    corr = pd.DataFrame(np.corrcoef(flat[:, :P], rowvar=False).reshape(P, P), index=problem.names,
-                        columns=problem.names)
+    corr = pd.DataFrame(
+        np.corrcoef(flat[:, :P], rowvar=False).reshape(P, P),
+        index=problem.names,
+        columns=problem.names,
+    )
 
     predicted = problem.predict(point)
-    metrics = {"n_points": problem.data.n, "n_params": P,
-               **residual_metrics(predicted, problem.data.measured),
-               **information_criteria(problem.weighted_residuals(point), P),
-               **{k: diag[k] for k in ("looic", "looic_se", "waic", "waic_se", "elpd_loo", "elpd_loo_se", "p_loo")}}
-    info = {"seed": seed, "n_steps": n_steps, "n_walkers": n_walkers, "start": "least squares",
-            "point_estimate": "highest-posterior draw (MAP)",
-            "noise_priors": "log-uniform: sigma_magnitude 0.001..1, sigma_phase 0.1..50 deg",
-            "fixed": dict(problem.fixed)}
-    return PosteriorResult(model=problem.model.name, chain=problem.chain.name, method="mcmc",
-                           label=problem.data.label, values=values, stderr=stderr, intervals=intervals,
-                           correlations=corr, metrics=metrics, residuals=residual_table(problem, predicted),
-                           warnings=warns, info=info, problem=problem, internal=point,
-                           samples=samples[..., :P], noise_samples=10 ** samples[..., P:], diagnostics=diag)
+    metrics = {
+        "n_points": problem.data.n,
+        "n_params": P,
+        **residual_metrics(predicted, problem.data.measured),
+        **information_criteria(problem.weighted_residuals(point), P),
+        **{
+            k: diag[k]
+            for k in ("looic", "looic_se", "waic", "waic_se", "elpd_loo", "elpd_loo_se", "p_loo")
+        },
+    }
+    info = {
+        "seed": seed,
+        "n_steps": n_steps,
+        "n_walkers": n_walkers,
+        "start": "least squares",
+        "point_estimate": "highest-posterior draw (MAP)",
+        "noise_priors": "log-uniform: sigma_magnitude 0.001..1, sigma_phase 0.1..50 deg",
+        "fixed": dict(problem.fixed),
+    }
+    return PosteriorResult(
+        model=problem.model.name,
+        chain=problem.chain.name,
+        method="mcmc",
+        label=problem.data.label,
+        values=values,
+        stderr=stderr,
+        intervals=intervals,
+        correlations=corr,
+        metrics=metrics,
+        residuals=residual_table(problem, predicted),
+        warnings=warns,
+        info=info,
+        problem=problem,
+        internal=point,
+        samples=samples[..., :P],
+        noise_samples=10 ** samples[..., P:],
+        diagnostics=diag,
+    )

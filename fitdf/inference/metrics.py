@@ -12,6 +12,7 @@ The unweighted RMS residuals are reported alongside because they are what a user
 read off a plot: complex ``|M - D|``, magnitude ``|M| - |D|`` and phase ``arg M - arg D``
 in degrees (rows with ``D = 0`` have no phase and are left out of the phase RMS).
 """
+
 from __future__ import annotations
 
 import numpy as np

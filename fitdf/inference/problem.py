@@ -15,19 +15,21 @@ noise (with a floor), so a degree of phase counts less where the DF itself is ti
 where the analyser's phase reading means little. Where ``D = 0`` the predicted phasor
 gives the direction.
 """
+
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from fitdf.chains import get_chain
-from fitdf.errors import ModelError
 from fitdf.data.fitdata import FitData, NoiseModel
+from fitdf.errors import ModelError
 from fitdf.models import get_model
 from fitdf.params import PER_TABLE, ParamSpec, table_parameter
 
 __all__ = ["FitProblem"]
+
 
 class FitProblem:
     """Predictions and residuals of ``model`` seen through ``chain`` on ``data``.
@@ -44,8 +46,14 @@ class FitProblem:
         Parameter values held fixed (not fitted).
     """
 
-    def __init__(self, data: FitData, model, chain="winding", noise: NoiseModel | None = None,
-                 fixed: dict | None = None):
+    def __init__(
+        self,
+        data: FitData,
+        model,
+        chain="winding",
+        noise: NoiseModel | None = None,
+        fixed: dict | None = None,
+    ):
         self.data = data
         self.model = get_model(model)
         self.chain = get_chain(chain)
@@ -57,7 +65,11 @@ class FitProblem:
         for spec in self.chain.params:
             if spec.name in PER_TABLE and len(groups) > 1:
                 for g in groups:  # one calibration gain per table in a joint fit
-                    s = replace(spec, name=table_parameter(spec.name, g), description=f"{spec.description} (table {g})")
+                    s = replace(
+                        spec,
+                        name=table_parameter(spec.name, g),
+                        description=f"{spec.description} (table {g})",
+                    )
                     chain_specs.append(s)
                     self._gain_specs.append((s.name, g))
             else:
@@ -65,8 +77,10 @@ class FitProblem:
         self.all_specs: list[ParamSpec] = list(self.model.params) + chain_specs
         unknown = set(self.fixed) - {s.name for s in self.all_specs}
         if unknown:
-            raise ModelError(f"cannot fix unknown parameter(s) {', '.join(sorted(unknown))}; "
-                             f"parameters are {', '.join(s.name for s in self.all_specs)}")
+            raise ModelError(
+                f"cannot fix unknown parameter(s) {', '.join(sorted(unknown))}; "
+                f"parameters are {', '.join(s.name for s in self.all_specs)}"
+            )
         self.specs: list[ParamSpec] = [s for s in self.all_specs if s.name not in self.fixed]
         self.names = [s.name for s in self.specs]
         self._group_index = {g: data.group == g for g in groups}
@@ -103,7 +117,9 @@ class FitProblem:
         return out
 
     # ---------------------------------------------------------------- predictions
-    def predict_natural(self, values: dict, amplitude, frequency, source_impedance, group=None, warm=None):
+    def predict_natural(
+        self, values: dict, amplitude, frequency, source_impedance, group=None, warm=None
+    ):
         """Measured-DF prediction for natural parameter values (arrays of a common batch shape)."""
         m_theta = np.stack([np.asarray(values[s.name], float) for s in self.model.params], axis=-1)
         c_specs = self.chain.params
@@ -114,8 +130,15 @@ class FitProblem:
             else:
                 c_values.append(np.asarray(values[s.name], float))
         c_theta = np.stack(c_values, axis=-1) if c_values else np.zeros(m_theta.shape[:-1] + (0,))
-        pred = self.chain.predict(self.model, np.asarray(amplitude, float), np.asarray(frequency, float),
-                                  np.asarray(source_impedance, float), m_theta, c_theta, initial_current=warm)
+        pred = self.chain.predict(
+            self.model,
+            np.asarray(amplitude, float),
+            np.asarray(frequency, float),
+            np.asarray(source_impedance, float),
+            m_theta,
+            c_theta,
+            initial_current=warm,
+        )
         return pred * self._gain_per_row(values, np.asarray(amplitude).size, group)
 
     def _gain_per_row(self, values, n, group):
@@ -134,8 +157,13 @@ class FitProblem:
     def predict(self, internal):
         """Prediction at the data rows for internal vectors of shape ``(..., P)``."""
         d = self.data
-        return self.predict_natural(self.full_natural(internal), d.amplitude, d.frequency, d.source_impedance,
-                                    warm=self.warm_current)
+        return self.predict_natural(
+            self.full_natural(internal),
+            d.amplitude,
+            d.frequency,
+            d.source_impedance,
+            warm=self.warm_current,
+        )
 
     def set_warm_start(self, internal):
         """Start the chain's current solver at the currents of ``internal`` (e.g. the optimum).
@@ -145,10 +173,15 @@ class FitProblem:
         """
         values = self.full_natural(np.asarray(internal, float))
         m_theta = np.array([float(values[s.name]) for s in self.model.params])
-        c_theta = np.array([1.0 if s.name in PER_TABLE else float(values[s.name]) for s in self.chain.params])
+        c_theta = np.array(
+            [1.0 if s.name in PER_TABLE else float(values[s.name]) for s in self.chain.params]
+        )
         d = self.data
-        self.warm_current = np.asarray(self.chain.core_current(self.model, d.amplitude, d.frequency,
-                                                               d.source_impedance, m_theta, c_theta))
+        self.warm_current = np.asarray(
+            self.chain.core_current(
+                self.model, d.amplitude, d.frequency, d.source_impedance, m_theta, c_theta
+            )
+        )
 
     # ---------------------------------------------------------------- residuals
     def error_components(self, predicted):
@@ -163,9 +196,19 @@ class FitProblem:
 
     def scales(self, sigma_magnitude=None, sigma_phase_deg=None):
         """Radial and tangential noise scales per row (broadcast against batches)."""
-        sm = self.noise.sigma_magnitude if sigma_magnitude is None else np.asarray(sigma_magnitude)[..., None]
-        sp = self.noise.sigma_phase_deg if sigma_phase_deg is None else np.asarray(sigma_phase_deg)[..., None]
-        tang = np.hypot(np.abs(self.data.measured) * np.deg2rad(sp), self.noise.floor * np.ones_like(sm))
+        sm = (
+            self.noise.sigma_magnitude
+            if sigma_magnitude is None
+            else np.asarray(sigma_magnitude)[..., None]
+        )
+        sp = (
+            self.noise.sigma_phase_deg
+            if sigma_phase_deg is None
+            else np.asarray(sigma_phase_deg)[..., None]
+        )
+        tang = np.hypot(
+            np.abs(self.data.measured) * np.deg2rad(sp), self.noise.floor * np.ones_like(sm)
+        )
         return sm, tang
 
     def weighted_residuals(self, internal):
@@ -178,5 +221,9 @@ class FitProblem:
         """Gaussian log-likelihood per row (batch-aware), for MCMC and PSIS-LOO/WAIC."""
         radial, tang = self.error_components(self.predict(internal))
         sr, st = self.scales(sigma_magnitude, sigma_phase_deg)
-        return (-0.5 * ((radial / sr) ** 2 + (tang / st) ** 2)
-                - np.log(sr) - np.log(st) - np.log(2.0 * np.pi))
+        return (
+            -0.5 * ((radial / sr) ** 2 + (tang / st) ** 2)
+            - np.log(sr)
+            - np.log(st)
+            - np.log(2.0 * np.pi)
+        )

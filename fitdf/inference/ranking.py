@@ -9,6 +9,7 @@ Ranking
     when their AICc differ by less than 2 (least squares) or their LOO-IC difference is
     smaller than twice its standard error (MCMC).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,19 +21,38 @@ from fitdf.chains import get_chain
 from fitdf.data.cores import winding_resistance_estimate
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit, resolve_data
-from fitdf.inference.problem import FitProblem
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.metrics import residual_metrics
+from fitdf.inference.problem import FitProblem
 from fitdf.models import model_names
 from fitdf.params import PER_TABLE, parameter_base
 
-__all__ = ["compare", "Comparison", "compare_fits", "fit_all", "ranking_table", "best_by_aicc", "cross_validate",
-           "cross_impedance", "RANK_COLUMNS", "METHOD_CHOICES"]
+__all__ = [
+    "compare",
+    "Comparison",
+    "compare_fits",
+    "fit_all",
+    "ranking_table",
+    "best_by_aicc",
+    "cross_validate",
+    "cross_impedance",
+    "RANK_COLUMNS",
+    "METHOD_CHOICES",
+]
 
 #: Columns a ranking can be ordered by, and whether larger is better.
-RANK_COLUMNS = {"rms_complex": False, "rms_magnitude": False, "rms_phase_deg": False, "redchi": False,
-                "aicc": False, "bic": False, "looic": False, "waic": False, "cv_rms_complex": False,
-                "n_params": False}
+RANK_COLUMNS = {
+    "rms_complex": False,
+    "rms_magnitude": False,
+    "rms_phase_deg": False,
+    "redchi": False,
+    "aicc": False,
+    "bic": False,
+    "looic": False,
+    "waic": False,
+    "cv_rms_complex": False,
+    "n_params": False,
+}
 #: ``method`` choices of :func:`compare` and the fits each one runs.
 METHOD_CHOICES = {"lsq": ("lsq",), "mcmc": ("mcmc",), "both": ("lsq", "mcmc")}
 
@@ -42,7 +62,9 @@ def best_by_aicc(results):
     return min(results, key=lambda r: r.metrics["aicc"])
 
 
-def fit_all(data, models=None, chains=("winding",), methods=("lsq",), seed=0, progress=None, **kw) -> list:
+def fit_all(
+    data, models=None, chains=("winding",), methods=("lsq",), seed=0, progress=None, **kw
+) -> list:
     """Fit every model x chain x method on the same rows; returns the results in that order."""
     models = list(models or model_names())
     fd = resolve_data(data, kw.pop("policy", "default"), kw.pop("source_impedance", None))
@@ -66,18 +88,33 @@ def cross_validate(result, seed=0, n_starts=3) -> dict:
     errors, per_fold = [], []
     for rs, f in keys:
         held = (d.source_impedance == rs) & (d.frequency == f)
-        train = FitProblem(d.subset(~held), problem.model, problem.chain, problem.noise, problem.fixed)
+        train = FitProblem(
+            d.subset(~held), problem.model, problem.chain, problem.noise, problem.fixed
+        )
         if train.data.n <= train.ndim:
             continue
         r = fit_lsq(train, seed=seed, n_starts=n_starts)
         held_rows = d.subset(held)
-        pred = r.predict(held_rows.amplitude, held_rows.frequency, held_rows.source_impedance,
-                         table=held_rows.group[0] if held_rows.group[0] in train.data.groups else None)
+        pred = r.predict(
+            held_rows.amplitude,
+            held_rows.frequency,
+            held_rows.source_impedance,
+            table=held_rows.group[0] if held_rows.group[0] in train.data.groups else None,
+        )
         errors.append(np.abs(pred - held_rows.measured))
-        per_fold.append({"source_impedance_ohm": rs, "frequency_hz": f,
-                         **residual_metrics(pred, held_rows.measured)})
+        per_fold.append(
+            {
+                "source_impedance_ohm": rs,
+                "frequency_hz": f,
+                **residual_metrics(pred, held_rows.measured),
+            }
+        )
     allerr = np.concatenate(errors) if errors else np.array([np.nan])
-    return {"cv_rms_complex": float(np.sqrt(np.mean(allerr**2))), "cv_folds": len(per_fold), "cv_per_fold": per_fold}
+    return {
+        "cv_rms_complex": float(np.sqrt(np.mean(allerr**2))),
+        "cv_folds": len(per_fold),
+        "cv_per_fold": per_fold,
+    }
 
 
 def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None) -> pd.DataFrame:
@@ -87,11 +124,24 @@ def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None)
     rows = []
     for i, r in enumerate(results):
         m = r.metrics
-        row = {"model": r.model, "chain": r.chain, "method": r.method, "n_params": m["n_params"],
-               "n_points": m["n_points"], "rms_complex": m["rms_complex"], "rms_magnitude": m["rms_magnitude"],
-               "rms_phase_deg": m["rms_phase_deg"], "redchi": m["redchi"], "aicc": m["aicc"], "bic": m["bic"],
-               "looic": m.get("looic", np.nan), "looic_se": m.get("looic_se", np.nan),
-               "waic": m.get("waic", np.nan), "cv_rms_complex": np.nan, "warnings": len(r.warnings)}
+        row = {
+            "model": r.model,
+            "chain": r.chain,
+            "method": r.method,
+            "n_params": m["n_params"],
+            "n_points": m["n_points"],
+            "rms_complex": m["rms_complex"],
+            "rms_magnitude": m["rms_magnitude"],
+            "rms_phase_deg": m["rms_phase_deg"],
+            "redchi": m["redchi"],
+            "aicc": m["aicc"],
+            "bic": m["bic"],
+            "looic": m.get("looic", np.nan),
+            "looic_se": m.get("looic_se", np.nan),
+            "waic": m.get("waic", np.nan),
+            "cv_rms_complex": np.nan,
+            "warnings": len(r.warnings),
+        }
         if cv is not None and i in cv:
             row["cv_rms_complex"] = cv[i]["cv_rms_complex"]
         rows.append(row)
@@ -102,7 +152,9 @@ def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None)
     table["indistinguishable_from"] = _ties(results, table)
     if rank_by in ("looic", "waic") and table[rank_by].isna().all():
         raise OptionError(f"--rank-by {rank_by} needs MCMC fits (use --method mcmc or both)")
-    table = table.sort_values([rank_by, "aicc"], kind="stable", na_position="last").reset_index(drop=True)
+    table = table.sort_values([rank_by, "aicc"], kind="stable", na_position="last").reset_index(
+        drop=True
+    )
     table.insert(0, "rank", np.arange(1, len(table) + 1))
     return table
 
@@ -143,8 +195,17 @@ class Comparison:
         return next(r for r in self.results if (r.model, r.chain, r.method) == key)
 
 
-def compare_fits(data, models=None, chains=("winding",), method="lsq", seed=0, rank_by="rms_complex",
-                 cross_validation=True, progress=None, **kw) -> Comparison:
+def compare_fits(
+    data,
+    models=None,
+    chains=("winding",),
+    method="lsq",
+    seed=0,
+    rank_by="rms_complex",
+    cross_validation=True,
+    progress=None,
+    **kw,
+) -> Comparison:
     """Fit every model (:func:`fit_all`), cross-validate the least-squares fits, rank them.
 
     ``method`` is "lsq", "mcmc" or "both"; other keywords go to :func:`fitdf.fit`.
@@ -153,23 +214,46 @@ def compare_fits(data, models=None, chains=("winding",), method="lsq", seed=0, r
     if methods is None:
         raise OptionError(f"unknown method {method!r}; choose lsq, mcmc or both")
     results = fit_all(data, models, chains, methods, seed=seed, progress=progress, **kw)
-    cv = {i: cross_validate(r, seed=seed) for i, r in enumerate(results) if r.method == "lsq"} \
-        if cross_validation else None
+    cv = (
+        {i: cross_validate(r, seed=seed) for i, r in enumerate(results) if r.method == "lsq"}
+        if cross_validation
+        else None
+    )
     return Comparison(ranking_table(results, rank_by, cv), tuple(results))
 
 
-def compare(data, models=None, chains=("winding",), method="lsq", seed=0, rank_by="rms_complex",
-            cross_validation=True, progress=None, **kw) -> pd.DataFrame:
+def compare(
+    data,
+    models=None,
+    chains=("winding",),
+    method="lsq",
+    seed=0,
+    rank_by="rms_complex",
+    cross_validation=True,
+    progress=None,
+    **kw,
+) -> pd.DataFrame:
     """The ranking table of :func:`compare_fits` (see the module docstring).
 
     For the fitted results as well, call :func:`compare_fits`, or :func:`fit_all` and
     :func:`ranking_table`.
     """
-    return compare_fits(data, models, chains, method, seed, rank_by, cross_validation, progress, **kw).table
+    return compare_fits(
+        data, models, chains, method, seed, rank_by, cross_validation, progress, **kw
+    ).table
 
 
-def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=600.0, seed=0,
-                    policy="default", n_starts=6, r_winding=None) -> pd.DataFrame:
+def cross_impedance(
+    core,
+    models=None,
+    chain="winding",
+    train_ohm=0.0,
+    test_ohm=600.0,
+    seed=0,
+    policy="default",
+    n_starts=6,
+    r_winding=None,
+) -> pd.DataFrame:
     """Fit a core at one source impedance and predict its data at the other.
 
     Everything that describes the core (the law's parameters and the winding
@@ -184,7 +268,9 @@ def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=
     test = resolve_data(core, policy, test_ohm)
     fixed0 = {}
     if any(p.name == "r_winding" for p in get_chain(chain).params):
-        fixed0["r_winding"] = float(r_winding) if r_winding is not None else winding_resistance_estimate(core)
+        fixed0["r_winding"] = (
+            float(r_winding) if r_winding is not None else winding_resistance_estimate(core)
+        )
     rows = []
     for model in list(models or model_names()):
         fitted = fit(train, model, chain=chain, seed=seed, n_starts=n_starts, fixed=fixed0)
@@ -197,10 +283,20 @@ def cross_impedance(core, models=None, chain="winding", train_ohm=0.0, test_ohm=
         else:
             pred = target.predict(np.zeros(0))
             gain = {}
-        rows.append({"core": str(core) if not isinstance(core, pd.DataFrame) else "data", "model": model,
-                     "chain": chain, "train_ohm": train_ohm, "test_ohm": test_ohm,
-                     "r_winding_fixed": fixed0.get("r_winding", np.nan),
-                     "train_rms_complex": fitted.metrics["rms_complex"],
-                     **{f"predict_{k}": v for k, v in residual_metrics(pred, test.measured).items()},
-                     "n_test": test.n, "calibration_gain": next(iter(gain.values()), np.nan)})
-    return pd.DataFrame(rows).sort_values("predict_rms_complex", kind="stable").reset_index(drop=True)
+        rows.append(
+            {
+                "core": str(core) if not isinstance(core, pd.DataFrame) else "data",
+                "model": model,
+                "chain": chain,
+                "train_ohm": train_ohm,
+                "test_ohm": test_ohm,
+                "r_winding_fixed": fixed0.get("r_winding", np.nan),
+                "train_rms_complex": fitted.metrics["rms_complex"],
+                **{f"predict_{k}": v for k, v in residual_metrics(pred, test.measured).items()},
+                "n_test": test.n,
+                "calibration_gain": next(iter(gain.values()), np.nan),
+            }
+        )
+    return (
+        pd.DataFrame(rows).sort_values("predict_rms_complex", kind="stable").reset_index(drop=True)
+    )

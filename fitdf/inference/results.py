@@ -5,6 +5,7 @@ MCMC; both answer the same questions (``values``, ``intervals``, ``metrics``,
 ``residuals``, ``predict``, ``summary``, ``to_dict``), so reports and rankings treat
 them alike.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -32,8 +33,9 @@ def residual_table(problem, predicted) -> pd.DataFrame:
     out["df_predicted"] = np.abs(predicted)
     out["phase_lead_predicted_deg"] = np.angle(predicted, deg=True)
     out["magnitude_residual"] = out["df_predicted"] - out["df_measured"]
-    out["phase_residual_deg"] = np.where(np.abs(d.measured) > 0,
-                                         phase_difference_deg(predicted, d.measured), np.nan)
+    out["phase_residual_deg"] = np.where(
+        np.abs(d.measured) > 0, phase_difference_deg(predicted, d.measured), np.nan
+    )
     out["complex_residual"] = np.abs(predicted - d.measured)
     return out.reset_index(drop=True)
 
@@ -88,16 +90,24 @@ class FitResult:
         ``table`` picks the calibration gain of that table in a joint fit (default: the first).
         """
         amplitude, frequency, source_impedance = np.broadcast_arrays(
-            np.asarray(amplitude, float), np.asarray(frequency, float), np.asarray(source_impedance, float))
-        group = np.full(amplitude.shape, table if table is not None else self.problem.data.groups[0])
+            np.asarray(amplitude, float),
+            np.asarray(frequency, float),
+            np.asarray(source_impedance, float),
+        )
+        group = np.full(
+            amplitude.shape, table if table is not None else self.problem.data.groups[0]
+        )
         values = {k: np.asarray(v) for k, v in self.values.items()}
-        return self.problem.predict_natural(values, amplitude.ravel(), frequency.ravel(),
-                                            source_impedance.ravel(), group.ravel()).reshape(amplitude.shape)
+        return self.problem.predict_natural(
+            values, amplitude.ravel(), frequency.ravel(), source_impedance.ravel(), group.ravel()
+        ).reshape(amplitude.shape)
 
     def describing_function(self, amplitude, frequency=0.0):
         """The fitted core's own ``N`` (model only, no chain) at model-input amplitudes."""
         theta = np.array([self.values[p.name] for p in self.problem.model.params])
-        return self.problem.model.evaluate(np.atleast_1d(amplitude), np.atleast_1d(frequency), theta)
+        return self.problem.model.evaluate(
+            np.atleast_1d(amplitude), np.atleast_1d(frequency), theta
+        )
 
     def parameter_table(self) -> pd.DataFrame:
         specs = {s.name: s for s in self.problem.all_specs}
@@ -105,11 +115,21 @@ class FitResult:
         for name, value in self.values.items():
             s = specs[name]
             iv = self.intervals.get(name, {})
-            rows.append({"parameter": name, "value": value, "stderr": self.stderr.get(name, np.nan),
-                         "p2.5": iv.get("p2.5", np.nan), "p16": iv.get("p16", np.nan),
-                         "p84": iv.get("p84", np.nan), "p97.5": iv.get("p97.5", np.nan),
-                         "unit": s.unit, "fixed": name in self.problem.fixed,
-                         "lower": s.bounds[0], "upper": s.bounds[1]})
+            rows.append(
+                {
+                    "parameter": name,
+                    "value": value,
+                    "stderr": self.stderr.get(name, np.nan),
+                    "p2.5": iv.get("p2.5", np.nan),
+                    "p16": iv.get("p16", np.nan),
+                    "p84": iv.get("p84", np.nan),
+                    "p97.5": iv.get("p97.5", np.nan),
+                    "unit": s.unit,
+                    "fixed": name in self.problem.fixed,
+                    "lower": s.bounds[0],
+                    "upper": s.bounds[1],
+                }
+            )
         return pd.DataFrame(rows)
 
     def metrics_by_frequency(self) -> pd.DataFrame:
@@ -118,20 +138,30 @@ class FitResult:
         for (rs, f), g in r.groupby(["source_impedance_ohm", "frequency_hz"]):
             pred = g["df_predicted"] * np.exp(1j * np.deg2rad(g["phase_lead_predicted_deg"]))
             meas = g["df_measured"] * np.exp(1j * np.deg2rad(g["phase_lead_measured_deg"]))
-            rows.append({"source_impedance_ohm": rs, "frequency_hz": f, "n": len(g),
-                         **residual_metrics(pred.to_numpy(), meas.to_numpy())})
+            rows.append(
+                {
+                    "source_impedance_ohm": rs,
+                    "frequency_hz": f,
+                    "n": len(g),
+                    **residual_metrics(pred.to_numpy(), meas.to_numpy()),
+                }
+            )
         return pd.DataFrame(rows)
 
     def summary(self) -> str:
         m = self.metrics
-        lines = [f"{self.model} + {self.chain} chain ({self.method}) on {self.label}: "
-                 f"{m['n_points']} rows, {m['n_params']} parameters",
-                 f"  RMS complex {m['rms_complex']:.4f}  magnitude {m['rms_magnitude']:.4f}  "
-                 f"phase {m['rms_phase_deg']:.2f} deg  redchi {m['redchi']:.3g}  AICc {m['aicc']:.1f}"]
+        lines = [
+            f"{self.model} + {self.chain} chain ({self.method}) on {self.label}: "
+            f"{m['n_points']} rows, {m['n_params']} parameters",
+            f"  RMS complex {m['rms_complex']:.4f}  magnitude {m['rms_magnitude']:.4f}  "
+            f"phase {m['rms_phase_deg']:.2f} deg  redchi {m['redchi']:.3g}  AICc {m['aicc']:.1f}",
+        ]
         for _, row in self.parameter_table().iterrows():
             tag = " (fixed)" if row["fixed"] else ""
-            lines.append(f"  {row['parameter']:<14s} {row['value']:.5g} {row['unit']}"
-                         f"  68%: [{row['p16']:.4g}, {row['p84']:.4g}]{tag}")
+            lines.append(
+                f"  {row['parameter']:<14s} {row['value']:.5g} {row['unit']}"
+                f"  68%: [{row['p16']:.4g}, {row['p84']:.4g}]{tag}"
+            )
         lines += [f"  warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
@@ -140,13 +170,20 @@ class FitResult:
 
     def to_dict(self) -> dict:
         """Plain-Python (JSON-ready) record of the result."""
-        return clean({
-            "model": self.model, "chain": self.chain, "method": self.method, "label": self.label,
-            "parameters": self.parameter_table().to_dict(orient="records"),
-            "correlations": self.correlations.to_dict(),
-            "metrics": self.metrics, "warnings": list(self.warnings), "info": self.info,
-            "rows_used": self.residuals.to_dict(orient="records"),
-        })
+        return clean(
+            {
+                "model": self.model,
+                "chain": self.chain,
+                "method": self.method,
+                "label": self.label,
+                "parameters": self.parameter_table().to_dict(orient="records"),
+                "correlations": self.correlations.to_dict(),
+                "metrics": self.metrics,
+                "warnings": list(self.warnings),
+                "info": self.info,
+                "rows_used": self.residuals.to_dict(orient="records"),
+            }
+        )
 
 
 @dataclass(frozen=True)
@@ -171,19 +208,38 @@ class PosteriorResult(FitResult):
             flat = flat[np.sort(idx)]
         return flat
 
-    def predictive_band(self, amplitude, frequency, source_impedance=0.0, table=None,
-                        quantiles=(2.5, 16, 50, 84, 97.5), max_draws=400, seed=0) -> dict:
+    def predictive_band(
+        self,
+        amplitude,
+        frequency,
+        source_impedance=0.0,
+        table=None,
+        quantiles=(2.5, 16, 50, 84, 97.5),
+        max_draws=400,
+        seed=0,
+    ) -> dict:
         """Posterior predictive bands of |DF| and phase lead (deg) at the given points."""
         amplitude, frequency, source_impedance = np.broadcast_arrays(
-            np.asarray(amplitude, float), np.asarray(frequency, float), np.asarray(source_impedance, float))
+            np.asarray(amplitude, float),
+            np.asarray(frequency, float),
+            np.asarray(source_impedance, float),
+        )
         flat = self.flat_internal(max_draws, seed)
         group = np.full(amplitude.size, table if table is not None else self.problem.data.groups[0])
-        pred = self.problem.predict_natural(self.problem.full_natural(flat), amplitude.ravel(),
-                                            frequency.ravel(), source_impedance.ravel(), group)
+        pred = self.problem.predict_natural(
+            self.problem.full_natural(flat),
+            amplitude.ravel(),
+            frequency.ravel(),
+            source_impedance.ravel(),
+            group,
+        )
         mag = np.percentile(np.abs(pred), quantiles, axis=0)
         phase = np.percentile(np.angle(pred, deg=True), quantiles, axis=0)
-        return {"quantiles": list(quantiles), "magnitude": mag.reshape((len(quantiles),) + amplitude.shape),
-                "phase_deg": phase.reshape((len(quantiles),) + amplitude.shape)}
+        return {
+            "quantiles": list(quantiles),
+            "magnitude": mag.reshape((len(quantiles),) + amplitude.shape),
+            "phase_deg": phase.reshape((len(quantiles),) + amplitude.shape),
+        }
 
     def to_dict(self) -> dict:
         d = super().to_dict()

@@ -4,6 +4,7 @@ Fits the candidate laws to the core's measured DF (:func:`fitdf.fit`), keeps the
 AICc, and solves harmonic balance (:func:`fitdf.loop.harmonic.limit_cycles`) with the
 fitted core's *measured* DF at the chosen source impedance.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -34,15 +35,40 @@ class FittedLimitCycles:
     def to_dict(self) -> dict:
         """JSON-ready record (the ``--json`` output of ``fitdf limit-cycle``)."""
         best = self.best
-        return {"data": self.data, "source_impedance_ohm": float(self.source_impedance), "seed": int(self.seed),
-                "model": best.model, "chain": best.chain, "time_scale": float(self.time_scale),
-                "models_tried": [{"model": r.model, "aicc": clean(float(r.metrics["aicc"])),
-                                  "rms_complex": clean(float(r.metrics["rms_complex"]))} for r in self.fits],
-                "parameters": {k: clean(float(v)) for k, v in best.values.items()}, **self.response.to_dict()}
+        return {
+            "data": self.data,
+            "source_impedance_ohm": float(self.source_impedance),
+            "seed": int(self.seed),
+            "model": best.model,
+            "chain": best.chain,
+            "time_scale": float(self.time_scale),
+            "models_tried": [
+                {
+                    "model": r.model,
+                    "aicc": clean(float(r.metrics["aicc"])),
+                    "rms_complex": clean(float(r.metrics["rms_complex"])),
+                }
+                for r in self.fits
+            ],
+            "parameters": {k: clean(float(v)) for k, v in best.values.items()},
+            **self.response.to_dict(),
+        }
 
 
-def fitted_limit_cycles(data, plant, gains, source_impedance, model=None, chain="winding", seed=0, *,
-                        amplitude_range=None, omega_range=None, time_scale=1.0, n_starts=6) -> FittedLimitCycles:
+def fitted_limit_cycles(
+    data,
+    plant,
+    gains,
+    source_impedance,
+    model=None,
+    chain="winding",
+    seed=0,
+    *,
+    amplitude_range=None,
+    omega_range=None,
+    time_scale=1.0,
+    n_starts=6,
+) -> FittedLimitCycles:
     """Fit the core, then find the limit cycles of the loop closed around it.
 
     Parameters
@@ -63,17 +89,31 @@ def fitted_limit_cycles(data, plant, gains, source_impedance, model=None, chain=
     n_starts : int
         Least-squares starts per model.
     """
-    lp = as_loop_plant(plant, time_scale)   # a bad plant fails now, before any fitting
-    if source_impedance is None:   # one impedance in the data: use it; several: the user must choose
+    lp = as_loop_plant(plant, time_scale)  # a bad plant fails now, before any fitting
+    if source_impedance is None:  # one impedance in the data: use it; several: the user must choose
         found = sorted(set(resolve_data(data).source_impedance.tolist()))
         if len(found) != 1:
-            raise OptionError(f"{data}: rows at several source impedances ({', '.join(f'{r:g}' for r in found)} "
-                              "ohm); choose one with --source-impedance")
+            raise OptionError(
+                f"{data}: rows at several source impedances ({', '.join(f'{r:g}' for r in found)} "
+                "ohm); choose one with --source-impedance"
+            )
         source_impedance = found[0]
     names = [model] if model else model_names()
-    fits = tuple(fit(data, name, chain=chain, seed=seed, source_impedance=source_impedance, n_starts=n_starts)
-                 for name in names)
+    fits = tuple(
+        fit(
+            data, name, chain=chain, seed=seed, source_impedance=source_impedance, n_starts=n_starts
+        )
+        for name in names
+    )
     best = best_by_aicc(fits)
-    resp = limit_cycles(lp, best, gains, source_impedance=source_impedance, amplitude_range=amplitude_range,
-                        omega_range=omega_range)
-    return FittedLimitCycles(str(data), float(source_impedance), int(seed), float(time_scale), fits, best, resp)
+    resp = limit_cycles(
+        lp,
+        best,
+        gains,
+        source_impedance=source_impedance,
+        amplitude_range=amplitude_range,
+        omega_range=omega_range,
+    )
+    return FittedLimitCycles(
+        str(data), float(source_impedance), int(seed), float(time_scale), fits, best, resp
+    )

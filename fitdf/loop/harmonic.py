@@ -41,10 +41,11 @@ verdict is fragile.
 Measured cores lead (Fig 5.10), so their ``-1/N`` loci lie in the second quadrant and
 the intersections with the plant locus are there (Graphs 5.21, 5.22).
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -54,7 +55,13 @@ from fitdf._json import clean
 from fitdf.errors import OptionError
 from fitdf.loop.plant import LoopPlant, as_loop_plant
 
-__all__ = ["limit_cycles", "critical_gain", "LimitCycle", "LimitCycleResponse", "as_describing_function"]
+__all__ = [
+    "limit_cycles",
+    "critical_gain",
+    "LimitCycle",
+    "LimitCycleResponse",
+    "as_describing_function",
+]
 
 #: Accept a refined root when ``|ln|GN|| + |arg(-GN)|`` is below this.
 ROOT_TOL = 1e-9
@@ -89,8 +96,10 @@ def as_describing_function(nonlinearity, source_impedance: float = 0.0):
         return N, rng, label
     if callable(nonlinearity):
         return nonlinearity, None, getattr(nonlinearity, "__name__", "N")
-    raise OptionError(f"cannot use a {type(nonlinearity).__name__} as a nonlinearity; give a fitted "
-                      "result or a callable N(A, omega)")
+    raise OptionError(
+        f"cannot use a {type(nonlinearity).__name__} as a nonlinearity; give a fitted "
+        "result or a callable N(A, omega)"
+    )
 
 
 def _evaluate_N(N, A, omega):
@@ -139,11 +148,19 @@ class LimitCycle:
         return self.omega / (2.0 * np.pi)
 
     def to_dict(self) -> dict:
-        return {"gain": self.gain, "amplitude": self.amplitude, "omega_rad_s": self.omega,
-                "frequency_hz": self.frequency_hz, "stable": bool(self.stable), "loeb": self.loeb,
-                "df_magnitude": float(abs(self.N)), "df_phase_deg": float(np.angle(self.N, deg=True)),
-                "plant_magnitude": float(abs(self.G)), "plant_phase_deg": float(np.angle(self.G, deg=True)),
-                "residual": self.residual}
+        return {
+            "gain": self.gain,
+            "amplitude": self.amplitude,
+            "omega_rad_s": self.omega,
+            "frequency_hz": self.frequency_hz,
+            "stable": bool(self.stable),
+            "loeb": self.loeb,
+            "df_magnitude": float(abs(self.N)),
+            "df_phase_deg": float(np.angle(self.N, deg=True)),
+            "plant_magnitude": float(abs(self.G)),
+            "plant_phase_deg": float(np.angle(self.G, deg=True)),
+            "residual": self.residual,
+        }
 
 
 @dataclass(frozen=True)
@@ -187,10 +204,22 @@ class LimitCycleResponse:
             for c in found:
                 rows.append({**c.to_dict(), "oscillation": True})
             if not found:
-                rows.append({"gain": float(g), "amplitude": np.nan, "omega_rad_s": np.nan, "frequency_hz": np.nan,
-                             "stable": False, "loeb": np.nan, "df_magnitude": np.nan, "df_phase_deg": np.nan,
-                             "plant_magnitude": np.nan, "plant_phase_deg": np.nan, "residual": np.nan,
-                             "oscillation": False})
+                rows.append(
+                    {
+                        "gain": float(g),
+                        "amplitude": np.nan,
+                        "omega_rad_s": np.nan,
+                        "frequency_hz": np.nan,
+                        "stable": False,
+                        "loeb": np.nan,
+                        "df_magnitude": np.nan,
+                        "df_phase_deg": np.nan,
+                        "plant_magnitude": np.nan,
+                        "plant_phase_deg": np.nan,
+                        "residual": np.nan,
+                        "oscillation": False,
+                    }
+                )
         return pd.DataFrame(rows)
 
     def stable_cycles(self, which: str = "largest") -> pd.DataFrame:
@@ -200,21 +229,42 @@ class LimitCycleResponse:
         for g in self.gains:
             s = t[(t["gain"] == g) & t["stable"]]
             if s.empty:
-                rows.append({"gain": float(g), "amplitude": np.nan, "omega_rad_s": np.nan, "frequency_hz": np.nan,
-                             "n_stable": 0})
+                rows.append(
+                    {
+                        "gain": float(g),
+                        "amplitude": np.nan,
+                        "omega_rad_s": np.nan,
+                        "frequency_hz": np.nan,
+                        "n_stable": 0,
+                    }
+                )
             else:
                 r = s.sort_values("amplitude").iloc[-1 if which == "largest" else 0]
-                rows.append({"gain": float(g), "amplitude": r["amplitude"], "omega_rad_s": r["omega_rad_s"],
-                             "frequency_hz": r["frequency_hz"], "n_stable": len(s)})
+                rows.append(
+                    {
+                        "gain": float(g),
+                        "amplitude": r["amplitude"],
+                        "omega_rad_s": r["omega_rad_s"],
+                        "frequency_hz": r["frequency_hz"],
+                        "n_stable": len(s),
+                    }
+                )
         return pd.DataFrame(rows)
 
     def to_dict(self) -> dict:
-        return {"plant": self.plant_label, "nonlinearity": self.nonlinearity_label,
-                "gains": [float(g) for g in self.gains], "critical_gain": clean(float(self.critical_gain)),
-                "critical_point": {k: (clean(float(v)) if isinstance(v, float) else v)
-                                   for k, v in self.critical_point.items()},
-                "amplitude_range": list(self.amplitude_range), "omega_range": list(self.omega_range),
-                "intersections": [c.to_dict() for c in self.intersections]}
+        return {
+            "plant": self.plant_label,
+            "nonlinearity": self.nonlinearity_label,
+            "gains": [float(g) for g in self.gains],
+            "critical_gain": clean(float(self.critical_gain)),
+            "critical_point": {
+                k: (clean(float(v)) if isinstance(v, float) else v)
+                for k, v in self.critical_point.items()
+            },
+            "amplitude_range": list(self.amplitude_range),
+            "omega_range": list(self.omega_range),
+            "intersections": [c.to_dict() for c in self.intersections],
+        }
 
 
 # ---------------------------------------------------------------- the solver
@@ -245,8 +295,15 @@ def _candidates(F, max_candidates):
     score = corner_mag.min(axis=0) if ci.size else np.zeros(0)
     # tangential touches (a double root near the critical gain) change no sign: local minima
     pad = np.pad(mag, 1, constant_values=np.inf)
-    neigh = np.min([pad[1 + di:pad.shape[0] - 1 + di, 1 + dj:pad.shape[1] - 1 + dj]
-                    for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj], axis=0)
+    neigh = np.min(
+        [
+            pad[1 + di : pad.shape[0] - 1 + di, 1 + dj : pad.shape[1] - 1 + dj]
+            for di in (-1, 0, 1)
+            for dj in (-1, 0, 1)
+            if di or dj
+        ],
+        axis=0,
+    )
     mi, mj = np.nonzero((mag < neigh) & (mag < 0.05))
     pi, pj = np.concatenate([pi, mi]), np.concatenate([pj, mj])
     score = np.concatenate([score, mag[mi, mj]])
@@ -269,8 +326,18 @@ def _refine(plant, N, gain, u0, v0, bounds):
         return _log_residual(H)
 
     x0 = np.clip([u0, v0], bounds[0], bounds[1])
-    sol = least_squares(fun, x0, bounds=bounds, method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15,
-                        x_scale=1.0, diff_step=1e-9, max_nfev=400)
+    sol = least_squares(
+        fun,
+        x0,
+        bounds=bounds,
+        method="trf",
+        xtol=1e-15,
+        ftol=1e-15,
+        gtol=1e-15,
+        x_scale=1.0,
+        diff_step=1e-9,
+        max_nfev=400,
+    )
     return sol.x, float(np.sum(np.abs(sol.fun)))
 
 
@@ -291,7 +358,7 @@ def _solve_gain(plant, N, gain, A_grid, w_grid, Ngrid, Ggrid, max_candidates):
     lu, lv = np.log(A_grid), np.log(w_grid)
     bounds = (np.array([lu[0], lv[0]]), np.array([lu[-1], lv[-1]]))
     found = []
-    for i, j in pts:   # a handful of candidates per gain, each refined by scipy
+    for i, j in pts:  # a handful of candidates per gain, each refined by scipy
         x, res = _refine(plant, N, gain, lu[i], lv[j], bounds)
         if res > ROOT_TOL:
             continue
@@ -304,8 +371,18 @@ def _solve_gain(plant, N, gain, A_grid, w_grid, Ngrid, Ggrid, max_candidates):
         Gv = plant.response([w], [gain])[0, 0]
         Nv = _evaluate_N(N, np.array([A]), np.array([w]))[0]
         lo = _loeb(plant, N, gain, x[0], x[1])
-        out.append(LimitCycle(gain=float(gain), amplitude=float(A), omega=float(w), stable=bool(lo > 0),
-                              loeb=lo, N=complex(Nv), G=complex(Gv), residual=res))
+        out.append(
+            LimitCycle(
+                gain=float(gain),
+                amplitude=float(A),
+                omega=float(w),
+                stable=bool(lo > 0),
+                loeb=lo,
+                N=complex(Nv),
+                G=complex(Gv),
+                residual=res,
+            )
+        )
     return sorted(out, key=lambda c: c.amplitude)
 
 
@@ -317,7 +394,13 @@ def _crossover_peak(H, A_grid, w_grid):
     """
     im, re = H.imag, H.real
     s0, s1 = im[:, :-1], im[:, 1:]
-    cross = np.isfinite(s0) & np.isfinite(s1) & (np.sign(s0) != np.sign(s1)) & (re[:, :-1] < 0) & (re[:, 1:] < 0)
+    cross = (
+        np.isfinite(s0)
+        & np.isfinite(s1)
+        & (np.sign(s0) != np.sign(s1))
+        & (re[:, :-1] < 0)
+        & (re[:, 1:] < 0)
+    )
     if not cross.any():
         return 0.0, -1, -1, np.nan
     with np.errstate(all="ignore"):
@@ -335,24 +418,34 @@ def _peak_polish(plant, N, gain, A_grid, w_grid, i, j):
 
     def along(u):
         def imag(v):
-            return (plant.response([np.exp(v)], [gain])[0, 0]
-                    * _evaluate_N(N, np.array([np.exp(u)]), np.array([np.exp(v)]))[0]).imag
+            return (
+                plant.response([np.exp(v)], [gain])[0, 0]
+                * _evaluate_N(N, np.array([np.exp(u)]), np.array([np.exp(v)]))[0]
+            ).imag
+
         a, b = imag(lw[jl]), imag(lw[jh])
         if not (np.isfinite(a) and np.isfinite(b)) or np.sign(a) == np.sign(b):
             return np.nan, np.nan
         v = brentq(imag, lw[jl], lw[jh], xtol=1e-13)
-        H = plant.response([np.exp(v)], [gain])[0, 0] * _evaluate_N(N, np.array([np.exp(u)]), np.array([np.exp(v)]))[0]
+        H = (
+            plant.response([np.exp(v)], [gain])[0, 0]
+            * _evaluate_N(N, np.array([np.exp(u)]), np.array([np.exp(v)]))[0]
+        )
         return (-H.real if H.real < 0 else np.nan), v
 
     lo_u, hi_u = lu[max(i - 1, 0)], lu[min(i + 1, lu.size - 1)]
     if hi_u > lo_u:
-        res = minimize_scalar(lambda u: -np.nan_to_num(along(u)[0], nan=0.0), bounds=(lo_u, hi_u),
-                              method="bounded", options={"xatol": 1e-10})
+        res = minimize_scalar(
+            lambda u: -np.nan_to_num(along(u)[0], nan=0.0),
+            bounds=(lo_u, hi_u),
+            method="bounded",
+            options={"xatol": 1e-10},
+        )
         u = float(res.x)
     else:
         u = lu[i]
     peak, v = along(u)
-    for uu in (lu[0], lu[-1]):   # the peak may sit exactly on an edge of the box
+    for uu in (lu[0], lu[-1]):  # the peak may sit exactly on an edge of the box
         if abs(uu - u) < 1.5 * (lu[1] - lu[0]):
             p2, v2 = along(uu)
             if np.isfinite(p2) and (not np.isfinite(peak) or p2 >= peak):
@@ -360,8 +453,18 @@ def _peak_polish(plant, N, gain, A_grid, w_grid, i, j):
     return peak, u, v
 
 
-def critical_gain(plant, nonlinearity, *, amplitude_range=None, omega_range=None, source_impedance=0.0,
-                  n_amplitude=160, n_omega=320, gain_bracket=(1e-6, 1e9), time_scale=1.0) -> dict:
+def critical_gain(
+    plant,
+    nonlinearity,
+    *,
+    amplitude_range=None,
+    omega_range=None,
+    source_impedance=0.0,
+    n_amplitude=160,
+    n_omega=320,
+    gain_bracket=(1e-6, 1e9),
+    time_scale=1.0,
+) -> dict:
     """The gain below which no limit cycle exists in the amplitude box.
 
     For ``G = K G0`` a solution needs ``K = -1 / (G0 N)`` real and positive, so the
@@ -385,7 +488,12 @@ def critical_gain(plant, nonlinearity, *, amplitude_range=None, omega_range=None
 
 
 def _critical(lp, N, A_grid, w_grid, Ngrid, gain_bracket):
-    none = {"gain": float("inf"), "amplitude": float("nan"), "omega": float("nan"), "at_boundary": False}
+    none = {
+        "gain": float("inf"),
+        "amplitude": float("nan"),
+        "omega": float("nan"),
+        "at_boundary": False,
+    }
 
     def peak_at(gain):
         return _crossover_peak(lp.response(w_grid, [gain])[0][None, :] * Ngrid, A_grid, w_grid)
@@ -398,20 +506,32 @@ def _critical(lp, N, A_grid, w_grid, Ngrid, gain_bracket):
             return none
         if peak_at(np.exp(lo))[0] >= 1.0:
             hi = lo
-        for _ in range(60):   # bisection on ln K of "a solution exists" (grid test)
+        for _ in range(60):  # bisection on ln K of "a solution exists" (grid test)
             if hi - lo < 1e-6:
                 break
             mid = 0.5 * (lo + hi)
             lo, hi = (lo, mid) if peak_at(np.exp(mid))[0] >= 1.0 else (mid, hi)
-        k_ref = float(np.exp(_polished_root(lambda g: _polished_peak(lp, N, g, A_grid, w_grid, Ngrid)[0] - 1.0,
-                                            lo, hi)))
+        k_ref = float(
+            np.exp(
+                _polished_root(
+                    lambda g: _polished_peak(lp, N, g, A_grid, w_grid, Ngrid)[0] - 1.0, lo, hi
+                )
+            )
+        )
     peak, u, v = _polished_peak(lp, N, k_ref, A_grid, w_grid, Ngrid)
     if not np.isfinite(peak) or peak <= 0:
         return none
     gain = k_ref / peak if lp.linear_in_gain else k_ref
     step = np.log(A_grid[1] / A_grid[0])
-    at_edge = bool(min(abs(u - np.log(A_grid[0])), abs(u - np.log(A_grid[-1]))) < 1e-6 * max(step, 1))
-    return {"gain": float(gain), "amplitude": float(np.exp(u)), "omega": float(np.exp(v)), "at_boundary": at_edge}
+    at_edge = bool(
+        min(abs(u - np.log(A_grid[0])), abs(u - np.log(A_grid[-1]))) < 1e-6 * max(step, 1)
+    )
+    return {
+        "gain": float(gain),
+        "amplitude": float(np.exp(u)),
+        "omega": float(np.exp(v)),
+        "at_boundary": at_edge,
+    }
 
 
 def _polished_peak(lp, N, gain, A_grid, w_grid, Ngrid):
@@ -452,12 +572,25 @@ def _grids(lp, a_rng, amplitude_range, omega_range, n_amplitude, n_omega):
             raise OptionError(f"{name} must be two positive numbers, low < high; got ({lo}, {hi})")
     if n_amplitude < 8 or n_omega < 8:
         raise OptionError("the grids need at least 8 amplitudes and 8 frequencies")
-    return (np.geomspace(*amplitude_range, int(n_amplitude)), np.geomspace(*omega_range, int(n_omega)))
+    return (
+        np.geomspace(*amplitude_range, int(n_amplitude)),
+        np.geomspace(*omega_range, int(n_omega)),
+    )
 
 
-def limit_cycles(plant, nonlinearity, gains=None, *, amplitude_range=None, omega_range=None,
-                 source_impedance=0.0, n_amplitude=160, n_omega=320, max_candidates=40,
-                 time_scale=1.0) -> LimitCycleResponse:
+def limit_cycles(
+    plant,
+    nonlinearity,
+    gains=None,
+    *,
+    amplitude_range=None,
+    omega_range=None,
+    source_impedance=0.0,
+    n_amplitude=160,
+    n_omega=320,
+    max_candidates=40,
+    time_scale=1.0,
+) -> LimitCycleResponse:
     """Every limit cycle of the loop ``plant`` + ``nonlinearity``, for every gain (thesis V.6).
 
     Parameters
@@ -511,15 +644,23 @@ def limit_cycles(plant, nonlinearity, gains=None, *, amplitude_range=None, omega
     if gains.ndim != 1 or gains.size == 0 or not np.all(np.isfinite(gains)) or np.any(gains <= 0):
         raise OptionError("gains must be positive finite numbers")
     A_grid, w_grid = _grids(lp, a_rng, amplitude_range, omega_range, n_amplitude, n_omega)
-    Ngrid = _evaluate_N(N, A_grid[:, None], w_grid[None, :])   # the one expensive evaluation
+    Ngrid = _evaluate_N(N, A_grid[:, None], w_grid[None, :])  # the one expensive evaluation
     Gall = lp.response(w_grid, gains)
     found = []
-    for k, g in enumerate(gains):   # per gain: sign changes on the grid, then a few scipy refinements
+    for k, g in enumerate(
+        gains
+    ):  # per gain: sign changes on the grid, then a few scipy refinements
         found.extend(_solve_gain(lp, N, g, A_grid, w_grid, Ngrid, Gall[k], max_candidates))
     crit = _critical(lp, N, A_grid, w_grid, Ngrid, (1e-6 * gains.min(), 1e6 * gains.max()))
-    return LimitCycleResponse(plant_label=lp.label, nonlinearity_label=n_label, gains=gains,
-                              intersections=tuple(found), critical_gain=crit["gain"],
-                              critical_point={k: v for k, v in crit.items() if k != "gain"},
-                              amplitude_range=(float(A_grid[0]), float(A_grid[-1])),
-                              omega_range=(float(w_grid[0]), float(w_grid[-1])), plant=lp,
-                              describing_function=N)
+    return LimitCycleResponse(
+        plant_label=lp.label,
+        nonlinearity_label=n_label,
+        gains=gains,
+        intersections=tuple(found),
+        critical_gain=crit["gain"],
+        critical_point={k: v for k, v in crit.items() if k != "gain"},
+        amplitude_range=(float(A_grid[0]), float(A_grid[-1])),
+        omega_range=(float(w_grid[0]), float(w_grid[-1])),
+        plant=lp,
+        describing_function=N,
+    )

@@ -22,6 +22,7 @@ common powers of ``s`` are cancelled and the denominator made monic. Mistakes ra
 :class:`~control.TransferFunction` operation costs ~0.1 ms), ``MAX_DEGREE`` every intermediate
 polynomial (checked after each operation; numerator and denominator rescaled together to stay finite).
 """
+
 from __future__ import annotations
 
 import ast
@@ -38,21 +39,53 @@ import numpy as np
 
 from fitdf.errors import OptionError
 
-__all__ = ["MAX_DEGREE", "MAX_DEPTH", "MAX_EXPONENT", "MAX_LENGTH", "MAX_OPERATIONS", "LoopPlant", "Plant",
-           "as_loop_plant", "format_transfer_function", "parse_plant"]
+__all__ = [
+    "MAX_DEGREE",
+    "MAX_DEPTH",
+    "MAX_EXPONENT",
+    "MAX_LENGTH",
+    "MAX_OPERATIONS",
+    "LoopPlant",
+    "Plant",
+    "as_loop_plant",
+    "format_transfer_function",
+    "parse_plant",
+]
 
-MAX_LENGTH = 2000   #: longest accepted text (characters)
-MAX_DEGREE = 60     #: highest polynomial degree any intermediate result may reach
-MAX_DEPTH = 60      #: deepest nesting of parentheses and unary signs
-MAX_EXPONENT = 40   #: largest accepted |integer exponent|
-MAX_OPERATIONS = 2000   #: most transfer-function operations per evaluation (``x^n`` counts ``|n|``)
+MAX_LENGTH = 2000  #: longest accepted text (characters)
+MAX_DEGREE = 60  #: highest polynomial degree any intermediate result may reach
+MAX_DEPTH = 60  #: deepest nesting of parentheses and unary signs
+MAX_EXPONENT = 40  #: largest accepted |integer exponent|
+MAX_OPERATIONS = 2000  #: most transfer-function operations per evaluation (``x^n`` counts ``|n|``)
 
 _NUMBER = re.compile(r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
-_BAD_CHAR = re.compile(r"[^0-9A-Za-z_.+\-*/^() \t]")   # also keeps strings, newlines, '#' away from tokenize
-_ALLOWED = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Constant, ast.Name, ast.Load, ast.Add, ast.Sub,
-            ast.Mult, ast.Div, ast.Pow, ast.UAdd, ast.USub)
-_BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
-_S = control.TransferFunction([1.0, 0.0], [1.0])   # TransferFunction.s, whose int64 coefficients can overflow
+_BAD_CHAR = re.compile(
+    r"[^0-9A-Za-z_.+\-*/^() \t]"
+)  # also keeps strings, newlines, '#' away from tokenize
+_ALLOWED = (
+    ast.Expression,
+    ast.BinOp,
+    ast.UnaryOp,
+    ast.Constant,
+    ast.Name,
+    ast.Load,
+    ast.Add,
+    ast.Sub,
+    ast.Mult,
+    ast.Div,
+    ast.Pow,
+    ast.UAdd,
+    ast.USub,
+)
+_BINARY = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+}
+_S = control.TransferFunction(
+    [1.0, 0.0], [1.0]
+)  # TransferFunction.s, whose int64 coefficients can overflow
 
 
 def _fail(what: str, col: int, found: str = ""):
@@ -65,34 +98,47 @@ def _python_source(text: str) -> tuple[str, list[int]]:
     bad = _BAD_CHAR.search(text)
     if bad:
         _fail(f"unexpected character {bad.group()!r}", bad.start() + 1)
-    toks, stop = [], 0   # (kind "num" | "sym" (s, K) | "op" | "end", text, column); end of the last token
+    toks, stop = (
+        [],
+        0,
+    )  # (kind "num" | "sym" (s, K) | "op" | "end", text, column); end of the last token
     try:
         for t in tokenize.generate_tokens(io.StringIO(text).readline):
             word, col, stop = t.string, t.start[1] + 1, t.end[1] if t.string.strip() else stop
             if t.type == tokenize.NUMBER:
-                if toks and toks[-1][0] == "num" and not toks[-1][1].strip("0") and toks[-1][2] + len(toks[-1][1]) == col:
-                    word, col = toks[-1][1] + word, toks.pop()[2]   # Python splits "007" into "00", "7"
+                if (
+                    toks
+                    and toks[-1][0] == "num"
+                    and not toks[-1][1].strip("0")
+                    and toks[-1][2] + len(toks[-1][1]) == col
+                ):
+                    word, col = (
+                        toks[-1][1] + word,
+                        toks.pop()[2],
+                    )  # Python splits "007" into "00", "7"
                 if not _NUMBER.fullmatch(word):
                     _fail(f"malformed number {word!r}", col)
                 if not np.isfinite(float(word)):
                     _fail(f"number {word!r} out of range", col)
                 toks.append(("num", word, col))
             elif t.type == tokenize.NAME:
-                if set(word) - {"s", "K"}:   # "Ks" and "ss" are products of one-letter symbols
-                    raise OptionError(f"plant: unknown name {word!r} at column {col} "
-                                      "(use s for the Laplace variable and K for the gain)")
+                if set(word) - {"s", "K"}:  # "Ks" and "ss" are products of one-letter symbols
+                    raise OptionError(
+                        f"plant: unknown name {word!r} at column {col} "
+                        "(use s for the Laplace variable and K for the gain)"
+                    )
                 toks.extend(("sym", c, col + j) for j, c in enumerate(word))
             elif t.type == tokenize.OP or (t.type == tokenize.ERRORTOKEN and word.strip()):
-                for j, c in enumerate(["^"] if word == "**" else word):   # "//", "." ...: one by one
+                for j, c in enumerate(["^"] if word == "**" else word):  # "//", "." ...: one by one
                     if c not in "+-*/^()":
                         _fail(f"unexpected character {c!r}", col + j)
                     toks.append(("op", c, col + j))
-    except tokenize.TokenError as exc:   # at the end inside parentheses: reported below, at the '('
-        if text[stop:].strip():   # Python >= 3.12 stops at literals such as "3e+" or "1_"
+    except tokenize.TokenError as exc:  # at the end inside parentheses: reported below, at the '('
+        if text[stop:].strip():  # Python >= 3.12 stops at literals such as "3e+" or "1_"
             _fail(f"cannot read the text ({exc.args[0]})", stop + 1)
     if not toks:
         raise OptionError("plant: empty transfer function (column 1)")
-    out, cols, stack = [], [], []   # stack: the open '(' and pending unary signs, with their columns
+    out, cols, stack = [], [], []  # stack: the open '(' and pending unary signs, with their columns
     operand, prev = True, ""
     for kind, word, col in toks + [("end", "", len(text) + 1)]:
         found = "end of text" if kind == "end" else repr(word)
@@ -101,7 +147,7 @@ def _python_source(text: str) -> tuple[str, list[int]]:
         if not operand and kind == "num":
             _fail("missing operator before a number", col, found)
         if not operand and (kind == "sym" or word == "("):
-            out.append("*")   # implicit product
+            out.append("*")  # implicit product
             cols.append(col)
             operand = True
         if operand:
@@ -110,8 +156,13 @@ def _python_source(text: str) -> tuple[str, list[int]]:
             elif kind in ("num", "sym"):
                 operand = False
             else:
-                _fail("empty parentheses" if word == ")" and prev == "(" else "expected a number, s, K or '('",
-                      col, found)
+                _fail(
+                    "empty parentheses"
+                    if word == ")" and prev == "("
+                    else "expected a number, s, K or '('",
+                    col,
+                    found,
+                )
         elif word == ")":
             if not stack:
                 _fail("unbalanced ')'", col, found)
@@ -119,10 +170,12 @@ def _python_source(text: str) -> tuple[str, list[int]]:
         elif kind == "end" and stack:
             _fail(f"expected ')' to close the '(' of column {stack[-1][1]}", col, found)
         else:
-            operand = True   # a binary operator
+            operand = True  # a binary operator
         while not operand and stack and stack[-1][0] != "(":
-            stack.pop()   # an operand ends the unary signs before it
-        out.append("**" if word == "^" else str(int(word)) if word.isdigit() else word)   # "007" is not Python
+            stack.pop()  # an operand ends the unary signs before it
+        out.append(
+            "**" if word == "^" else str(int(word)) if word.isdigit() else word
+        )  # "007" is not Python
         cols.extend([col] * len(out[-1]))
         prev = word
     return "".join(out), cols + [col]
@@ -130,18 +183,22 @@ def _python_source(text: str) -> tuple[str, list[int]]:
 
 def _parse_tree(src: str, cols: list[int]) -> ast.Expression:
     """``ast.parse`` with a whitelist; binary operators get ``.col``, powers ``.exponent``."""
-    def op_col(node):   # the operator is the first of + - * / after the left operand (and its ')')
-        gap = src[node.left.end_col_offset:node.right.col_offset]
+
+    def op_col(node):  # the operator is the first of + - * / after the left operand (and its ')')
+        gap = src[node.left.end_col_offset : node.right.col_offset]
         return cols[node.left.end_col_offset + next(i for i, c in enumerate(gap) if c in "+-*/")]
 
     try:
         tree = ast.parse(src, mode="eval")
-    except (SyntaxError, RecursionError, MemoryError) as exc:   # not expected after _python_source
+    except (SyntaxError, RecursionError, MemoryError) as exc:  # not expected after _python_source
         raise OptionError(f"plant: cannot read {src[:40]!r} (column 1)") from exc
-    work = 0   # transfer-function operations in one evaluation
+    work = 0  # transfer-function operations in one evaluation
     for node in ast.walk(tree):
-        if not isinstance(node, _ALLOWED) or (isinstance(node, ast.Constant) and type(node.value) not in (int, float)) \
-                or (isinstance(node, ast.Name) and node.id not in ("s", "K")):
+        if (
+            not isinstance(node, _ALLOWED)
+            or (isinstance(node, ast.Constant) and type(node.value) not in (int, float))
+            or (isinstance(node, ast.Name) and node.id not in ("s", "K"))
+        ):
             _fail("unsupported expression", cols[getattr(node, "col_offset", 0)])
         if not isinstance(node, ast.BinOp):
             continue
@@ -173,26 +230,32 @@ def _check(tf, col):
         _fail(f"polynomial degree above {MAX_DEGREE}", col)
     if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
         _fail("coefficients overflow", col)
-    scale = np.max(np.abs(den))   # keep magnitudes tame: scale numerator and denominator together
-    return control.TransferFunction(num / scale, den / scale) if scale > 1e100 or 0 < scale < 1e-100 else tf
+    scale = np.max(np.abs(den))  # keep magnitudes tame: scale numerator and denominator together
+    return (
+        control.TransferFunction(num / scale, den / scale)
+        if scale > 1e100 or 0 < scale < 1e-100
+        else tf
+    )
 
 
 def _evaluate(node, gain: float):
     """The tree as a :class:`control.TransferFunction` at ``K = gain``."""
     if isinstance(node, ast.Name) and node.id == "s":
         return _S
-    if isinstance(node, (ast.Constant, ast.Name)):   # a number, or K
-        return control.TransferFunction([float(gain if isinstance(node, ast.Name) else node.value)], [1.0])
+    if isinstance(node, (ast.Constant, ast.Name)):  # a number, or K
+        return control.TransferFunction(
+            [float(gain if isinstance(node, ast.Name) else node.value)], [1.0]
+        )
     if isinstance(node, ast.UnaryOp):
         value = _evaluate(node.operand, gain)
         return -value if isinstance(node.op, ast.USub) else value
-    chain = []   # loop along the left operands: "1+1+...+1" must not recurse 1000 deep
+    chain = []  # loop along the left operands: "1+1+...+1" must not recurse 1000 deep
     while isinstance(node, ast.BinOp):
         chain.append(node)
         node = node.left
     acc = _evaluate(node, gain)
     for b in reversed(chain):
-        if isinstance(b.op, ast.Pow):   # |n| multiplications, in order, each checked
+        if isinstance(b.op, ast.Pow):  # |n| multiplications, in order, each checked
             base, acc = acc, control.TransferFunction([1.0], [1.0])
             if b.exponent < 0 and not np.any(_parts(base)[0]):
                 _fail("division by zero (zero to a negative power)", b.col)
@@ -213,7 +276,7 @@ def _normalise(num, den):
     if not np.any(num):
         return np.zeros(1), np.ones(1)
     k = min(np.flatnonzero(num[::-1])[0], np.flatnonzero(den[::-1])[0], min(num.size, den.size) - 1)
-    num, den = num[:num.size - k] / den[0], den[:den.size - k] / den[0]
+    num, den = num[: num.size - k] / den[0], den[: den.size - k] / den[0]
     if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
         raise OptionError("plant: coefficients overflow after normalisation")
     return num, den
@@ -250,7 +313,9 @@ class Plant:
         gains = np.atleast_1d(np.asarray(gains, float))
         with np.errstate(all="ignore"):
             if self.has_gain and not self.linear_in_gain:
-                return np.stack([np.polyval(n, s) / np.polyval(d, s) for n, d in map(self.polys, gains)])
+                return np.stack(
+                    [np.polyval(n, s) / np.polyval(d, s) for n, d in map(self.polys, gains)]
+                )
             num, den = self.polys(1.0)
             return gains[:, None] * (np.polyval(num, s) / np.polyval(den, s))[None, :]
 
@@ -268,7 +333,7 @@ class Plant:
         return mags[mags > 1e-12]
 
 
-LoopPlant = Plant   #: former name of the loop's plant, now the same class
+LoopPlant = Plant  #: former name of the loop's plant, now the same class
 
 
 @functools.lru_cache(maxsize=256)
@@ -289,7 +354,9 @@ def parse_plant(text: str) -> Plant:
     if not isinstance(text, str):
         raise OptionError(f"plant: expected text, got {type(text).__name__}")
     if len(text) > MAX_LENGTH:
-        raise OptionError(f"plant: text longer than {MAX_LENGTH} characters (column {MAX_LENGTH + 1})")
+        raise OptionError(
+            f"plant: text longer than {MAX_LENGTH} characters (column {MAX_LENGTH + 1})"
+        )
     tree = _parse_tree(*_python_source(text))
     has_gain = any(isinstance(n, ast.Name) and n.id == "K" for n in ast.walk(tree))
 
@@ -299,19 +366,26 @@ def parse_plant(text: str) -> Plant:
                 return _normalise(*_parts(_evaluate(tree.body, gain)))
             except OptionError:
                 raise
-            except (ValueError, ArithmeticError) as exc:   # e.g. a denominator underflowing to zero
+            except (ValueError, ArithmeticError) as exc:  # e.g. a denominator underflowing to zero
                 raise OptionError(f"plant: coefficients out of range at K = {gain:g}") from exc
 
-    g1 = polys(1.0)   # evaluated now, so that every error surfaces at parse time, not in a solver
+    g1 = polys(1.0)  # evaluated now, so that every error surfaces at parse time, not in a solver
     linear = True
     if has_gain:
         s = 1j * np.array([0.37, 1.9, 7.3])
         with np.errstate(all="ignore"):
             r1, r2 = (np.polyval(n, s) / np.polyval(d, s) for n, d in (g1, polys(2.0)))
-            linear = bool(np.all(np.isfinite(r1)) and np.all(np.isfinite(r2))
-                          and np.allclose(r2, 2.0 * r1, rtol=1e-9, atol=1e-300))
-    return Plant(text, (lambda g, n=g1[0], d=g1[1]: (n, d)) if linear else functools.lru_cache(maxsize=256)(polys),
-                 has_gain, linear)
+            linear = bool(
+                np.all(np.isfinite(r1))
+                and np.all(np.isfinite(r2))
+                and np.allclose(r2, 2.0 * r1, rtol=1e-9, atol=1e-300)
+            )
+    return Plant(
+        text,
+        (lambda g, n=g1[0], d=g1[1]: (n, d)) if linear else functools.lru_cache(maxsize=256)(polys),
+        has_gain,
+        linear,
+    )
 
 
 def format_transfer_function(num, den) -> str:
@@ -320,9 +394,13 @@ def format_transfer_function(num, den) -> str:
     >>> format_transfer_function([1.0], [1.0, 3.0, 2.0, 0.0])
     '(1.0)/(1.0*s^3 + 3.0*s^2 + 2.0*s)'
     """
+
     def poly(p):
-        terms = [repr(float(c)) + ("" if k == 0 else "*s" if k == 1 else f"*s^{k}")
-                 for k, c in zip(range(len(p) - 1, -1, -1), p) if c != 0]
+        terms = [
+            repr(float(c)) + ("" if k == 0 else "*s" if k == 1 else f"*s^{k}")
+            for k, c in zip(range(len(p) - 1, -1, -1), p)
+            if c != 0
+        ]
         return " + ".join(terms).replace("+ -", "- ") if terms else "0"
 
     return "({})/({})".format(*(poly(np.atleast_1d(np.asarray(p, float))) for p in (num, den)))
@@ -343,21 +421,33 @@ def as_loop_plant(plant, time_scale: float = 1.0) -> Plant:
             else:
                 system = control.ss2tf(plant) if isinstance(plant, control.StateSpace) else plant
                 if system.ninputs != 1 or system.noutputs != 1 or not system.isctime():
-                    raise OptionError("plant: a single-input single-output continuous-time system is needed")
-                label, num, den = str(plant).strip().replace("\n", " "), system.num[0][0], system.den[0][0]
+                    raise OptionError(
+                        "plant: a single-input single-output continuous-time system is needed"
+                    )
+                label, num, den = (
+                    str(plant).strip().replace("\n", " "),
+                    system.num[0][0],
+                    system.den[0][0],
+                )
             num, den = (np.atleast_1d(np.asarray(p, float)) for p in (num, den))
         except (AttributeError, TypeError) as exc:
-            raise OptionError(f"plant: cannot use a {type(plant).__name__}; give text, (num, den) "
-                              "or a python-control TransferFunction") from exc
+            raise OptionError(
+                f"plant: cannot use a {type(plant).__name__}; give text, (num, den) "
+                "or a python-control TransferFunction"
+            ) from exc
         if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))) or not np.any(den):
-            raise OptionError("plant: numerator and denominator must be finite and the denominator non-zero")
+            raise OptionError(
+                "plant: numerator and denominator must be finite and the denominator non-zero"
+            )
         base = Plant(label or f"({list(num)})/({list(den)})", lambda g, n=num, d=den: (n, d))
     if time_scale == 1.0:
         return base
     if not (np.isfinite(time_scale) and time_scale > 0):
         raise OptionError(f"time_scale must be a positive number, got {time_scale!r}")
 
-    def scaled(g, _b=base, _a=float(time_scale)):   # G(s/a): the coefficient of s^k divided by a^k
-        return tuple(np.asarray(p, float) / _a ** np.arange(len(p) - 1, -1, -1) for p in _b.polys(g))
+    def scaled(g, _b=base, _a=float(time_scale)):  # G(s/a): the coefficient of s^k divided by a^k
+        return tuple(
+            np.asarray(p, float) / _a ** np.arange(len(p) - 1, -1, -1) for p in _b.polys(g)
+        )
 
     return Plant(f"{base.label} at s/{time_scale:g}", scaled, base.has_gain, base.linear_in_gain)

@@ -40,6 +40,7 @@ saturates (Photos 8-13). :func:`simulated_describing_function` measures the DF t
 operator really has under sinusoidal voltage; harmonic balance on that DF
 (:func:`tabulated_describing_function`) leaves only the first approximation.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -54,9 +55,16 @@ from fitdf.errors import OptionError
 from fitdf.loop.plant import as_loop_plant
 from fitdf.params import calibration_gain
 
-__all__ = ["Saturation", "RelayHysteresis", "CoreElement", "TimeResponse", "simulate_loop",
-           "measure_oscillation", "simulated_describing_function",
-           "tabulated_describing_function"]
+__all__ = [
+    "Saturation",
+    "RelayHysteresis",
+    "CoreElement",
+    "TimeResponse",
+    "simulate_loop",
+    "measure_oscillation",
+    "simulated_describing_function",
+    "tabulated_describing_function",
+]
 
 
 # ---------------------------------------------------------------- elements
@@ -75,7 +83,10 @@ class Saturation:
         with np.errstate(divide="ignore", invalid="ignore"):
             r = np.minimum(self.limit / (self.slope * A), 1.0)
             N = (2 * self.slope / np.pi) * (np.arcsin(r) + r * np.sqrt(1.0 - r * r))
-        return np.broadcast_to(np.where(np.isfinite(N), N, self.slope), np.broadcast(A, omega).shape) + 0j
+        return (
+            np.broadcast_to(np.where(np.isfinite(N), N, self.slope), np.broadcast(A, omega).shape)
+            + 0j
+        )
 
 
 @dataclass(frozen=True)
@@ -151,20 +162,37 @@ class CoreElement:
     chain_theta: dict = field(default_factory=dict, repr=False)
 
     @classmethod
-    def from_fit(cls, result, source_impedance: float = 0.0, **kw) -> "CoreElement":
+    def from_fit(cls, result, source_impedance: float = 0.0, **kw) -> CoreElement:
         """The core of a fitted result, driven through ``source_impedance`` ohm."""
         model = result.problem.model
         chain = result.problem.chain.name
         values = result.values
         theta = {p.name: float(values[p.name]) for p in model.params}
         gain = calibration_gain(values)
-        ctheta = {p.name: float(values.get(p.name, gain if p.name == "gain" else p.default))
-                  for p in result.problem.chain.params}
+        ctheta = {
+            p.name: float(values.get(p.name, gain if p.name == "gain" else p.default))
+            for p in result.problem.chain.params
+        }
         if chain == "winding":
-            return cls(model, theta, "winding", resistance=float(source_impedance) + float(values["r_winding"]),
-                       gain=gain, source_impedance=float(source_impedance), chain_theta=ctheta, **kw)
+            return cls(
+                model,
+                theta,
+                "winding",
+                resistance=float(source_impedance) + float(values["r_winding"]),
+                gain=gain,
+                source_impedance=float(source_impedance),
+                chain_theta=ctheta,
+                **kw,
+            )
         if chain == "direct":
-            return cls(model, theta, "direct", input_scale=float(values["input_scale"]), chain_theta=ctheta, **kw)
+            return cls(
+                model,
+                theta,
+                "direct",
+                input_scale=float(values["input_scale"]),
+                chain_theta=ctheta,
+                **kw,
+            )
         raise OptionError(f"no time-domain operator for the {chain!r} chain")
 
     def describing_function(self, A, omega):
@@ -173,8 +201,14 @@ class CoreElement:
         A, omega = np.broadcast_arrays(np.asarray(A, float), np.asarray(omega, float))
         m = np.array([self.theta[p.name] for p in self.model.params])
         c = np.array([self.chain_theta[p.name] for p in ch.params])
-        out = ch.predict(self.model, A.ravel(), omega.ravel() / (2 * np.pi),
-                         np.full(A.size, self.source_impedance), m, c)
+        out = ch.predict(
+            self.model,
+            A.ravel(),
+            omega.ravel() / (2 * np.pi),
+            np.full(A.size, self.source_impedance),
+            m,
+            c,
+        )
         return out.reshape(A.shape)
 
     def start(self, batch, dt):
@@ -224,10 +258,10 @@ class _WindingRunner:
         d = self.d[rows][:, None]
         x = self.i_tp[rows][:, None] + d * S
         Y = el.branch(x, d, a[:, None], self.f[rows][:, None])
-        Y = Y - Y[:, :1]          # flux relative to the turning point (continuity)
+        Y = Y - Y[:, :1]  # flux relative to the turning point (continuity)
         G = self.R * S + d * Y / self.dt[rows][:, None]
         self.S[rows] = S
-        self.G[rows] = np.maximum.accumulate(G, axis=1)   # guard round-off in flats
+        self.G[rows] = np.maximum.accumulate(G, axis=1)  # guard round-off in flats
         self.built[rows] = True
 
     def step(self, v, t):
@@ -237,7 +271,7 @@ class _WindingRunner:
         # restores second order without the ringing a trapezoidal R i has on saturation flats.
         v = v + 0.5 * R * self.di
         rev = self.d * (v - R * self.i) < 0
-        if rev.any():       # a turning point of the current: new branch of amplitude |i|
+        if rev.any():  # a turning point of the current: new branch of amplitude |i|
             t = np.broadcast_to(t, rev.shape)[rev]
             half = t - self.t_rev[rev]
             self.f[rev] = np.where(half > 4 * dt[rev], 0.5 / np.maximum(half, dt[rev]), self.f[rev])
@@ -248,17 +282,17 @@ class _WindingRunner:
             self.built[rev] = False
         tau = self.d * (v - R * self.i_tp) + self.d * (self.lam - self.lam_tp) / dt
         need = ~self.built | (tau >= self.G[:, -1])
-        if need.any():      # new half cycle, or the current runs past the table's end
+        if need.any():  # new half cycle, or the current runs past the table's end
             rows = np.nonzero(need)[0]
             self._build(rows, 4.0 * np.abs(tau[rows]) / R + 1e-300)
         M = self.G.shape[1]
         k = np.minimum(np.maximum((self.G < tau[:, None]).sum(axis=1), 1), M - 1) + self.offsets
-        G, S = self.G.ravel(), self.S.ravel()          # flat gathers: cheaper than take_along_axis
+        G, S = self.G.ravel(), self.S.ravel()  # flat gathers: cheaper than take_along_axis
         g0, g1, s0, s1 = G[k - 1], G[k], S[k - 1], S[k]
         dg = g1 - g0
         w = np.minimum(np.maximum((tau - g0) / np.where(dg > 0, dg, np.inf), 0.0), 1.0)
         i_new = self.i_tp + self.d * (s0 + w * (s1 - s0))
-        emf = v - R * i_new                      # d(lambda)/dt from the implicit equation
+        emf = v - R * i_new  # d(lambda)/dt from the implicit equation
         self.lam = self.lam + dt * emf
         self.di = i_new - self.i
         self.i[:] = i_new
@@ -285,7 +319,9 @@ class _DirectRunner:
         if rev.any():
             self.a[rev] = np.abs(self.x[rev])
             self.d[rev] = -self.d[rev]
-            self.offset[rev] = self.lam[rev] - el.branch(self.x[rev], self.d[rev], self.a[rev], self.f[rev])
+            self.offset[rev] = self.lam[rev] - el.branch(
+                self.x[rev], self.d[rev], self.a[rev], self.f[rev]
+            )
         self.lam = el.branch(x, self.d, self.a, self.f) + self.offset
         self.x[:] = x
         return el.input_scale * self.lam
@@ -301,23 +337,34 @@ class TimeResponse:
     error: np.ndarray
     element_output: np.ndarray
     plant_output: np.ndarray
-    probe: np.ndarray | None = None   # winding current (core) or None
+    probe: np.ndarray | None = None  # winding current (core) or None
 
     def measure(self, settle_fraction: float = 0.6) -> pd.DataFrame:
         """Oscillation amplitude and frequency per batch member (:func:`measure_oscillation`)."""
         rows = []
-        for b in range(self.error.shape[0]):   # per batch member, on the recorded arrays
+        for b in range(self.error.shape[0]):  # per batch member, on the recorded arrays
             m = measure_oscillation(self.t, self.error[b], settle_fraction)
             my = measure_oscillation(self.t, self.plant_output[b], settle_fraction)
             row = {"gain": float(self.gains[b]), **m, "plant_output_amplitude": my["amplitude"]}
             if self.probe is not None:
-                row["probe_amplitude"] = measure_oscillation(self.t, self.probe[b], settle_fraction)["amplitude"]
+                row["probe_amplitude"] = measure_oscillation(
+                    self.t, self.probe[b], settle_fraction
+                )["amplitude"]
             rows.append(row)
         return pd.DataFrame(rows)
 
 
-def simulate_loop(plant, element, gains=1.0, *, t_end: float, dt: float, initial_output=0.1,
-                  time_scale: float = 1.0, record_every: int = 1) -> TimeResponse:
+def simulate_loop(
+    plant,
+    element,
+    gains=1.0,
+    *,
+    t_end: float,
+    dt: float,
+    initial_output=0.1,
+    time_scale: float = 1.0,
+    record_every: int = 1,
+) -> TimeResponse:
     """Simulate the loop of Fig 5.12 (no reference; ``e = -y``) for a batch of gains.
 
     Parameters
@@ -351,12 +398,12 @@ def simulate_loop(plant, element, gains=1.0, *, t_end: float, dt: float, initial
     Ad, Bd, C = _discretise(lp, gains, dt)
     B = gains.size
     y0 = np.broadcast_to(np.asarray(initial_output, float), (B,))
-    x = np.einsum("bij,bj->bi", np.linalg.pinv(C[:, None, :]), y0[:, None])   # y(0) = y0
+    x = np.einsum("bij,bj->bi", np.linalg.pinv(C[:, None, :]), y0[:, None])  # y(0) = y0
     runner = element.start(B, dt)
     n_rec = n_steps // record_every + 1
     rec = {k: np.empty((B, n_rec)) for k in ("e", "u", "y", "p")}
     e_prev = None
-    for n in range(n_steps + 1):      # time necessarily steps; the batch is vectorised
+    for n in range(n_steps + 1):  # time necessarily steps; the batch is vectorised
         y = np.einsum("bi,bi->b", C, x)
         e = -y
         # the element's output is held over [t_n, t_n + dt]: feed it the input extrapolated
@@ -371,26 +418,38 @@ def simulate_loop(plant, element, gains=1.0, *, t_end: float, dt: float, initial
                 rec["p"][:, r] = runner.probe
         x = np.einsum("bij,bj->bi", Ad, x) + Bd * u[:, None]
     t = np.arange(n_rec) * dt * record_every
-    return TimeResponse(t, gains, rec["e"], rec["u"], rec["y"], rec["p"] if runner.probe is not None else None)
+    return TimeResponse(
+        t, gains, rec["e"], rec["u"], rec["y"], rec["p"] if runner.probe is not None else None
+    )
 
 
 def _discretise(lp, gains, dt):
     mats = []
-    for g in ([1.0] if lp.linear_in_gain else gains):   # one model, or one per gain when K is inside
+    for g in [1.0] if lp.linear_in_gain else gains:  # one model, or one per gain when K is inside
         num, den = lp.polynomials(g)
         num = np.trim_zeros(np.asarray(num, float), "f")
         if num.size == 0:
             num = np.zeros(1)
         if num.size >= np.trim_zeros(np.asarray(den, float), "f").size:
-            raise OptionError("the time-domain check needs a strictly proper plant (more poles than zeros)")
+            raise OptionError(
+                "the time-domain check needs a strictly proper plant (more poles than zeros)"
+            )
         A, Bm, C, _ = signal.tf2ss(num, den)
         Ad, Bd, Cd, _, _ = signal.cont2discrete((A, Bm, C, np.zeros((1, 1))), dt, method="zoh")
         mats.append((Ad, Bd[:, 0], Cd[0]))
     if lp.linear_in_gain:
         Ad, Bd, C = mats[0]
         n = gains.size
-        return np.broadcast_to(Ad, (n,) + Ad.shape), gains[:, None] * Bd, np.broadcast_to(C, (n, C.size))
-    return (np.stack([m[0] for m in mats]), np.stack([m[1] for m in mats]), np.stack([m[2] for m in mats]))
+        return (
+            np.broadcast_to(Ad, (n,) + Ad.shape),
+            gains[:, None] * Bd,
+            np.broadcast_to(C, (n, C.size)),
+        )
+    return (
+        np.stack([m[0] for m in mats]),
+        np.stack([m[1] for m in mats]),
+        np.stack([m[2] for m in mats]),
+    )
 
 
 def measure_oscillation(t, x, settle_fraction: float = 0.6) -> dict:
@@ -408,8 +467,15 @@ def measure_oscillation(t, x, settle_fraction: float = 0.6) -> dict:
     t, x = np.asarray(t, float), np.asarray(x, float)
     tail = t >= t[0] + settle_fraction * (t[-1] - t[0])
     tt, xx = t[tail], x[tail]
-    nan = {"oscillating": False, "amplitude": np.nan, "amplitude_h1": np.nan, "omega": np.nan,
-           "frequency_hz": np.nan, "n_cycles": 0, "drift": np.nan}
+    nan = {
+        "oscillating": False,
+        "amplitude": np.nan,
+        "amplitude_h1": np.nan,
+        "omega": np.nan,
+        "frequency_hz": np.nan,
+        "n_cycles": 0,
+        "drift": np.nan,
+    }
     scale = np.max(np.abs(x)) if x.size else 0.0
     if tt.size < 8 or scale == 0:
         return nan
@@ -427,12 +493,26 @@ def measure_oscillation(t, x, settle_fraction: float = 0.6) -> dict:
     drift = (p2p[1] - p2p[0]) / p2p[0] if p2p[0] > 0 else np.nan
     amp = 0.5 * np.ptp(xw)
     osc = bool(p2p[1] > 0.9 * p2p[0] and amp > 1e-9 * scale)
-    return {"oscillating": osc, "amplitude": float(amp), "amplitude_h1": float(h1), "omega": float(omega),
-            "frequency_hz": float(omega / (2 * np.pi)), "n_cycles": int(tc.size - 1), "drift": float(drift)}
+    return {
+        "oscillating": osc,
+        "amplitude": float(amp),
+        "amplitude_h1": float(h1),
+        "omega": float(omega),
+        "frequency_hz": float(omega / (2 * np.pi)),
+        "n_cycles": int(tc.size - 1),
+        "drift": float(drift),
+    }
 
 
-def simulated_describing_function(element, amplitude, frequency_hz, *, cycles: int = 8, settle_cycles: int = 4,
-                                  steps_per_period: int = 1000) -> np.ndarray:
+def simulated_describing_function(
+    element,
+    amplitude,
+    frequency_hz,
+    *,
+    cycles: int = 8,
+    settle_cycles: int = 4,
+    steps_per_period: int = 1000,
+) -> np.ndarray:
     """The DF an element really has under a sinusoidal *voltage* ``v = A sin(2 pi f t)``.
 
     Every amplitude (and frequency) is one batch member, run together; the first
@@ -442,20 +522,21 @@ def simulated_describing_function(element, amplitude, frequency_hz, *, cycles: i
     read -- the current is whatever the circuit makes it -- whereas the chain's DF
     assumes a sinusoidal current; the difference is the error of that assumption.
     """
-    A, f = np.broadcast_arrays(np.atleast_1d(np.asarray(amplitude, float)),
-                               np.atleast_1d(np.asarray(frequency_hz, float)))
+    A, f = np.broadcast_arrays(
+        np.atleast_1d(np.asarray(amplitude, float)), np.atleast_1d(np.asarray(frequency_hz, float))
+    )
     A, f = A.ravel(), f.ravel()
     if np.any(f <= 0) or cycles <= settle_cycles:
         raise OptionError("need positive frequencies and cycles > settle_cycles")
     T = 1.0 / f
-    dt = T / steps_per_period            # per member: same phase resolution at every frequency
+    dt = T / steps_per_period  # per member: same phase resolution at every frequency
     n = cycles * steps_per_period
     runner = element.start(A.size, dt)
     acc_s, acc_c = np.zeros(A.size), np.zeros(A.size)
     start = settle_cycles * steps_per_period
-    for k in range(n):                   # time steps; amplitudes are the batch
+    for k in range(n):  # time steps; amplitudes are the batch
         phase = 2 * np.pi * (k + 0.5) / steps_per_period
-        u = runner.step(A * np.sin(phase), (k + 0.5) * dt)   # t per member (frequency estimate)
+        u = runner.step(A * np.sin(phase), (k + 0.5) * dt)  # t per member (frequency estimate)
         if k >= start:
             acc_s += u * np.sin(phase)
             acc_c += u * np.cos(phase)
@@ -465,8 +546,16 @@ def simulated_describing_function(element, amplitude, frequency_hz, *, cycles: i
     return N.reshape(np.broadcast(np.asarray(amplitude), np.asarray(frequency_hz)).shape)
 
 
-def tabulated_describing_function(element, amplitude_range, omega_range, *, n_amplitude: int = 28,
-                                  n_omega: int = 8, steps_per_period: int = 400, cycles: int = 6):
+def tabulated_describing_function(
+    element,
+    amplitude_range,
+    omega_range,
+    *,
+    n_amplitude: int = 28,
+    n_omega: int = 8,
+    steps_per_period: int = 400,
+    cycles: int = 6,
+):
     """:func:`simulated_describing_function` on a log grid, as a callable ``N(A, omega)``.
 
     One batched simulation covers the whole grid; ``N`` is interpolated linearly in
@@ -477,14 +566,22 @@ def tabulated_describing_function(element, amplitude_range, omega_range, *, n_am
     la = np.linspace(*np.log(amplitude_range), int(n_amplitude))
     lw = np.linspace(*np.log(omega_range), int(n_omega))
     LA, LW = np.meshgrid(la, lw, indexing="ij")
-    N = simulated_describing_function(element, np.exp(LA), np.exp(LW) / (2 * np.pi), cycles=cycles,
-                                      settle_cycles=cycles // 2, steps_per_period=steps_per_period)
+    N = simulated_describing_function(
+        element,
+        np.exp(LA),
+        np.exp(LW) / (2 * np.pi),
+        cycles=cycles,
+        settle_cycles=cycles // 2,
+        steps_per_period=steps_per_period,
+    )
     re = RegularGridInterpolator((la, lw), N.real)
     im = RegularGridInterpolator((la, lw), N.imag)
 
     def table(A, omega):
         A, omega = np.broadcast_arrays(np.asarray(A, float), np.asarray(omega, float))
-        pts = np.stack([np.clip(np.log(A), la[0], la[-1]), np.clip(np.log(omega), lw[0], lw[-1])], axis=-1)
+        pts = np.stack(
+            [np.clip(np.log(A), la[0], la[-1]), np.clip(np.log(omega), lw[0], lw[-1])], axis=-1
+        )
         return re(pts) + 1j * im(pts)
 
     return table

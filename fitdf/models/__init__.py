@@ -1,4 +1,5 @@
 """Registry of the candidate hysteresis laws (name -> model class); one law per module."""
+
 from __future__ import annotations
 
 from fitdf.errors import ModelError
@@ -14,7 +15,14 @@ __all__ = ["HysteresisModel", "MODELS", "get_model", "model_names"]
 #: Registered laws by name, in the order listings and reports show them.
 MODELS: dict[str, type[HysteresisModel]] = {
     cls.name: cls
-    for cls in (ConstantWidth, ProportionalWidth, ProportionalWidthFig42, CubicHc, Rayleigh, FrequencyHc)
+    for cls in (
+        ConstantWidth,
+        ProportionalWidth,
+        ProportionalWidthFig42,
+        CubicHc,
+        Rayleigh,
+        FrequencyHc,
+    )
 }
 
 

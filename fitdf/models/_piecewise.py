@@ -19,6 +19,7 @@ eqs 2.1 and 2.2 with the half-wave symmetry used in eq 2.4,
 evaluated between the segment's end points (:func:`segments_df`). The thesis formulas
 (eqs 2.6, 2.8, 4.6, 4.7) are these sums worked out for particular segment layouts.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -113,8 +114,9 @@ def backlash_df(k, q, mu):
     q = np.clip(np.minimum(q, 1.0 - mu), 0.0, None)
     s1 = np.clip(q - mu, -1.0, 1.0)
     s2 = np.clip(q + mu, -1.0, 1.0)
-    G = (k / np.pi) * (np.arcsin(s1) + np.arcsin(s2)
-                       + s1 * np.sqrt(1.0 - s1 * s1) + s2 * np.sqrt(1.0 - s2 * s2))
+    G = (k / np.pi) * (
+        np.arcsin(s1) + np.arcsin(s2) + s1 * np.sqrt(1.0 - s1 * s1) + s2 * np.sqrt(1.0 - s2 * s2)
+    )
     B = -(k / np.pi) * (s2 * s2 - s1 * s1)
     return G + 1j * B
 
@@ -167,9 +169,9 @@ def fig42_df(k, r, m):
     den = np.where(2.0 * m - 1.0 > 0.0, 2.0 * m - 1.0, 1.0)
     u_low = np.clip(-(m - rr) / den, -1.0, 0.0)
     u_high = np.clip(m - rr, 0.0, 1.0)
-    cut = segments_df([-1.0, u_low, u_high, 1.0],
-                      [k * (1.0 - 2.0 * m), 0.0, k],
-                      [-k * m, -k * rr, -k * m])
+    cut = segments_df(
+        [-1.0, u_low, u_high, 1.0], [k * (1.0 - 2.0 * m), 0.0, k], [-k * m, -k * rr, -k * m]
+    )
     return np.where(m <= r, lens, np.where(r <= 1.0 - m, clipped_sat, cut))
 
 

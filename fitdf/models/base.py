@@ -12,6 +12,7 @@ Models know nothing of data, chains or fitting. Units follow the winding chain: 
 ``x`` is the winding current (A) and output the flux linkage (V s), so ``N`` is an
 amplitude-dependent complex inductance (H). Any other consistent units work too.
 """
+
 from __future__ import annotations
 
 from typing import ClassVar
@@ -50,7 +51,9 @@ class HysteresisModel(Parametrized):
     def numerical_describing_function(cls, amplitude, frequency=0.0, *, n_points=None, **theta):
         """``N`` from the numerical Fourier integral of :meth:`ascending_branch`."""
         kw = {} if n_points is None else {"n_points": n_points}
-        return numerical_describing_function(cls.ascending_branch, amplitude, frequency, **kw, **theta)
+        return numerical_describing_function(
+            cls.ascending_branch, amplitude, frequency, **kw, **theta
+        )
 
     @classmethod
     def evaluate(cls, amplitude, frequency, theta):
@@ -58,10 +61,16 @@ class HysteresisModel(Parametrized):
 
         ``amplitude`` and ``frequency`` are 1-D arrays of the ``n`` points.
         """
-        return cls.describing_function(np.asarray(amplitude, float), np.asarray(frequency, float),
-                                       **split_theta(cls.params, theta))
+        return cls.describing_function(
+            np.asarray(amplitude, float),
+            np.asarray(frequency, float),
+            **split_theta(cls.params, theta),
+        )
 
     @classmethod
     def _extra_description(cls) -> dict:
-        return {"equations": cls.equations, "frequency_dependent": cls.frequency_dependent,
-                "closed_form": cls.closed_form}
+        return {
+            "equations": cls.equations,
+            "frequency_dependent": cls.frequency_dependent,
+            "closed_form": cls.closed_form,
+        }

@@ -16,24 +16,37 @@ and the descending branch is ``-y_up(-x)``. Regimes of the describing function:
 
 All regimes are one formula in :func:`fitdf.models._piecewise.backlash_df`.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-from fitdf.params import ParamSpec
 from fitdf.models._piecewise import backlash_branch, backlash_df, ratio, with_frequency_shape
 from fitdf.models.base import HysteresisModel
+from fitdf.params import ParamSpec
 
 __all__ = ["ConstantWidth", "K_SPEC", "C_SPEC"]
 
 #: Slope of the loop's sides, shared by the piecewise-linear laws.
-K_SPEC = ParamSpec("k", 100.0, (1.0, 1e4), unit="H",
-                   description="slope of the loop's sides (unsaturated inductance)",
-                   equation="eqs 2.6, 2.8", log=True)
+K_SPEC = ParamSpec(
+    "k",
+    100.0,
+    (1.0, 1e4),
+    unit="H",
+    description="slope of the loop's sides (unsaturated inductance)",
+    equation="eqs 2.6, 2.8",
+    log=True,
+)
 #: Saturation level of the output, shared by the piecewise-linear laws.
-C_SPEC = ParamSpec("c", 0.03, (1e-4, 10.0), unit="V s",
-                   description="saturation flux linkage (np.inf in calls: no saturation)",
-                   equation="eqs 2.6, 2.8 (C = (b2 - b) K)", log=True)
+C_SPEC = ParamSpec(
+    "c",
+    0.03,
+    (1e-4, 10.0),
+    unit="V s",
+    description="saturation flux linkage (np.inf in calls: no saturation)",
+    equation="eqs 2.6, 2.8 (C = (b2 - b) K)",
+    log=True,
+)
 
 
 class ConstantWidth(HysteresisModel):
@@ -52,9 +65,15 @@ class ConstantWidth(HysteresisModel):
     equations = "eqs 2.6, 2.8 (saturated), 2.9, 2.13 (not saturated); Figs 2.3, 2.4"
     params = (
         K_SPEC,
-        ParamSpec("b", 3e-5, (1e-8, 1e-1), unit="A",
-                  description="half-width of the loop (coercive current)",
-                  equation="Fig 2.3; eq 2.11", log=True),
+        ParamSpec(
+            "b",
+            3e-5,
+            (1e-8, 1e-1),
+            unit="A",
+            description="half-width of the loop (coercive current)",
+            equation="Fig 2.3; eq 2.11",
+            log=True,
+        ),
         C_SPEC,
     )
 
@@ -71,8 +90,13 @@ class ConstantWidth(HysteresisModel):
         k, b, c : array_like
             Slope, half-width (negative values act as 0) and saturation level.
         """
-        return backlash_branch(np.asarray(x, float), np.asarray(amplitude, float),
-                               np.asarray(k, float), np.asarray(b, float), np.asarray(c, float))
+        return backlash_branch(
+            np.asarray(x, float),
+            np.asarray(amplitude, float),
+            np.asarray(k, float),
+            np.asarray(b, float),
+            np.asarray(c, float),
+        )
 
     @classmethod
     def describing_function(cls, amplitude, frequency=0.0, *, k, b, c):
@@ -103,6 +127,6 @@ class ConstantWidth(HysteresisModel):
         k = np.asarray(k, float)
         b = np.maximum(np.asarray(b, float), 0.0)
         c = np.asarray(c, float)
-        mu = ratio(b, A, 0.0)          # b = A = 0: the linear limit
+        mu = ratio(b, A, 0.0)  # b = A = 0: the linear limit
         r = ratio(c, k * A, np.inf)
         return with_frequency_shape(backlash_df(k, r, mu), frequency)

@@ -26,17 +26,17 @@ Thesis discrepancies found and handled here:
   ``H^2`` form at ``H_max`` gives, so 4.10 is right and only 4.9 is misprinted.
   :func:`cubic_from_kennelly` implements 4.10 (and ``alpha = 1/a``).
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-from fitdf.params import ParamSpec
 from fitdf.models._piecewise import fig42_branch, fig42_df, ratio, with_frequency_shape
 from fitdf.models.base import HysteresisModel
 from fitdf.models.constant_width import C_SPEC, K_SPEC
+from fitdf.params import ParamSpec
 
-__all__ = ["CubicHc", "cubic_width", "cubic_from_kennelly", "ks_magnet_steel_hc",
-           "KS_MAGNET_STEEL"]
+__all__ = ["CubicHc", "cubic_width", "cubic_from_kennelly", "ks_magnet_steel_hc", "KS_MAGNET_STEEL"]
 
 #: Eq 4.11 (K-S magnet steel, thesis field units) in the parameters of :func:`cubic_width`.
 KS_MAGNET_STEEL = {"alpha": 0.6, "beta": 7.5e-3, "h0": 0.5, "h1": 5.0, "tail_slope": 0.04}
@@ -87,8 +87,9 @@ def ks_magnet_steel_hc(hm):
     (``>= 0``); negative values are taken by magnitude.
     """
     h = np.abs(np.asarray(hm, float))
-    return np.where(h <= 0.5, 0.0,
-                    np.where(h <= 5.0, 0.6 * h - 0.3 - 7.5e-3 * h**3, 0.04 * h + 1.6))
+    return np.where(
+        h <= 0.5, 0.0, np.where(h <= 5.0, 0.6 * h - 0.3 - 7.5e-3 * h**3, 0.04 * h + 1.6)
+    )
 
 
 def cubic_from_kennelly(a, b, hm_max):
@@ -143,21 +144,51 @@ class CubicHc(HysteresisModel):
     params = (
         K_SPEC,
         C_SPEC,
-        ParamSpec("alpha", 0.1, (1e-3, 10.0), unit="1",
-                  description="initial slope of the coercive current vs amplitude",
-                  equation="eq 4.8 (alpha = 1/a, eq 4.9)", log=True),
-        ParamSpec("beta", 1e5, (1e-2, 1e12), unit="A^-2",
-                  description="cubic bending of the coercive-current law",
-                  equation="eq 4.8 (eq 4.10)", log=True),
-        ParamSpec("h0", 1e-5, (1e-8, 1e-2), unit="A",
-                  description="end of the dead zone (loop without width below it)",
-                  equation="eq 4.11 (0.5)", log=True),
-        ParamSpec("h1", 3e-4, (1e-7, 1.0), unit="A",
-                  description="start of the linear tail of the width law",
-                  equation="eq 4.11 (5)", log=True),
-        ParamSpec("tail_slope", 1e-3, (1e-6, 1.0), unit="1",
-                  description="slope of the width law beyond h1",
-                  equation="eq 4.11 (0.04)", log=True),
+        ParamSpec(
+            "alpha",
+            0.1,
+            (1e-3, 10.0),
+            unit="1",
+            description="initial slope of the coercive current vs amplitude",
+            equation="eq 4.8 (alpha = 1/a, eq 4.9)",
+            log=True,
+        ),
+        ParamSpec(
+            "beta",
+            1e5,
+            (1e-2, 1e12),
+            unit="A^-2",
+            description="cubic bending of the coercive-current law",
+            equation="eq 4.8 (eq 4.10)",
+            log=True,
+        ),
+        ParamSpec(
+            "h0",
+            1e-5,
+            (1e-8, 1e-2),
+            unit="A",
+            description="end of the dead zone (loop without width below it)",
+            equation="eq 4.11 (0.5)",
+            log=True,
+        ),
+        ParamSpec(
+            "h1",
+            3e-4,
+            (1e-7, 1.0),
+            unit="A",
+            description="start of the linear tail of the width law",
+            equation="eq 4.11 (5)",
+            log=True,
+        ),
+        ParamSpec(
+            "tail_slope",
+            1e-3,
+            (1e-6, 1.0),
+            unit="1",
+            description="slope of the width law beyond h1",
+            equation="eq 4.11 (0.04)",
+            log=True,
+        ),
     )
 
     @classmethod
@@ -168,17 +199,20 @@ class CubicHc(HysteresisModel):
         return np.clip(ratio(b, A, m0), 0.0, 1.0)
 
     @classmethod
-    def ascending_branch(cls, x, amplitude, frequency=0.0, *, k, c, alpha, beta, h0, h1,
-                         tail_slope):
+    def ascending_branch(
+        cls, x, amplitude, frequency=0.0, *, k, c, alpha, beta, h0, h1, tail_slope
+    ):
         """Rising branch of the Fig 4.2 loop with ``b = m(A) A``, ``m`` from :func:`cubic_width`."""
         A = np.asarray(amplitude, float)
         m = cls._m(A, alpha, beta, h0, h1, tail_slope)
-        return fig42_branch(np.asarray(x, float), A, np.asarray(k, float), m * A,
-                            np.asarray(c, float))
+        return fig42_branch(
+            np.asarray(x, float), A, np.asarray(k, float), m * A, np.asarray(c, float)
+        )
 
     @classmethod
-    def describing_function(cls, amplitude, frequency=0.0, *, k, c, alpha, beta, h0, h1,
-                            tail_slope):
+    def describing_function(
+        cls, amplitude, frequency=0.0, *, k, c, alpha, beta, h0, h1, tail_slope
+    ):
         """Closed-form ``N(A)``: eqs 4.6/4.7 (2.6/2.8 when ``k b > c``) with ``m = b(A)/A``.
 
         Parameters

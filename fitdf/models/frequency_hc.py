@@ -22,14 +22,15 @@ terms ``K_h f B^n + K_e f^2 B^2``) with the loop *energy per cycle* of eq 3.21
 kept as the thesis prints it; ``hc_b = 0`` is the corrected law, and a fit can tell
 whether the data need ``hc_b``.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-from fitdf.params import ParamSpec
 from fitdf.models.base import HysteresisModel
 from fitdf.models.constant_width import C_SPEC, K_SPEC, ConstantWidth
 from fitdf.models.proportional_width import M_SPEC
+from fitdf.params import ParamSpec
 
 __all__ = ["FrequencyHc", "coercive_current"]
 
@@ -63,11 +64,23 @@ class FrequencyHc(HysteresisModel):
         K_SPEC,
         C_SPEC,
         M_SPEC,
-        ParamSpec("hc_a", 2e-6, (0.0, 2e-5), unit="A/Hz",
-                  description="coercive current per hertz (a of eq 3.23)", equation="eq 3.23"),
-        ParamSpec("hc_b", 4e-8, (0.0, 4e-7), unit="A/Hz^2",
-                  description="coercive current per hertz squared (b of eq 3.23; 0 in the "
-                              "dimensionally consistent law)", equation="eq 3.23"),
+        ParamSpec(
+            "hc_a",
+            2e-6,
+            (0.0, 2e-5),
+            unit="A/Hz",
+            description="coercive current per hertz (a of eq 3.23)",
+            equation="eq 3.23",
+        ),
+        ParamSpec(
+            "hc_b",
+            4e-8,
+            (0.0, 4e-7),
+            unit="A/Hz^2",
+            description="coercive current per hertz squared (b of eq 3.23; 0 in the "
+            "dimensionally consistent law)",
+            equation="eq 3.23",
+        ),
     )
 
     @classmethod

@@ -48,22 +48,34 @@ The ascending branch implemented below is exactly this loop (one formula with a 
 to ``+-c``), so the numerical referee checks every regime, and the DF is continuous
 across all regime boundaries.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-from fitdf.params import ParamSpec
-from fitdf.models._piecewise import (backlash_branch, backlash_df, fig42_branch, fig42_df, ratio,
-                         with_frequency_shape)
+from fitdf.models._piecewise import (
+    backlash_branch,
+    backlash_df,
+    fig42_branch,
+    fig42_df,
+    ratio,
+    with_frequency_shape,
+)
 from fitdf.models.base import HysteresisModel
 from fitdf.models.constant_width import C_SPEC, K_SPEC
+from fitdf.params import ParamSpec
 
 __all__ = ["ProportionalWidth", "ProportionalWidthFig42", "saturation_amplitude", "M_SPEC"]
 
 #: Width-to-amplitude ratio of eq 4.2, shared by both laws.
-M_SPEC = ParamSpec("m", 0.3, (0.0, 0.99), unit="1",
-                   description="loop half-width over amplitude, b = m A",
-                   equation="eq 4.2, Fig 4.1")
+M_SPEC = ParamSpec(
+    "m",
+    0.3,
+    (0.0, 0.99),
+    unit="1",
+    description="loop half-width over amplitude, b = m A",
+    equation="eq 4.2, Fig 4.1",
+)
 
 
 def saturation_amplitude(k, c, m):
@@ -75,7 +87,9 @@ def saturation_amplitude(k, c, m):
     function depends on ``A`` from there on.
     """
     with np.errstate(divide="ignore"):
-        return (np.asarray(c, float) / np.asarray(k, float)) / np.maximum(1.0 - np.asarray(m, float), 0.0)
+        return (np.asarray(c, float) / np.asarray(k, float)) / np.maximum(
+            1.0 - np.asarray(m, float), 0.0
+        )
 
 
 def _clip_m(m):
@@ -104,8 +118,9 @@ class ProportionalWidth(HysteresisModel):
     def ascending_branch(cls, x, amplitude, frequency=0.0, *, k, c, m):
         """Rising branch of the Fig 2.3 loop with ``b = m A`` (see ``ConstantWidth``)."""
         A = np.asarray(amplitude, float)
-        return backlash_branch(np.asarray(x, float), A, np.asarray(k, float),
-                               _clip_m(m) * A, np.asarray(c, float))
+        return backlash_branch(
+            np.asarray(x, float), A, np.asarray(k, float), _clip_m(m) * A, np.asarray(c, float)
+        )
 
     @classmethod
     def describing_function(cls, amplitude, frequency=0.0, *, k, c, m):
@@ -155,8 +170,9 @@ class ProportionalWidthFig42(HysteresisModel):
     def ascending_branch(cls, x, amplitude, frequency=0.0, *, k, c, m):
         """Rising branch of the Fig 4.2 loop with ``b = m A`` (module docstring)."""
         A = np.asarray(amplitude, float)
-        return fig42_branch(np.asarray(x, float), A, np.asarray(k, float),
-                            _clip_m(m) * A, np.asarray(c, float))
+        return fig42_branch(
+            np.asarray(x, float), A, np.asarray(k, float), _clip_m(m) * A, np.asarray(c, float)
+        )
 
     @classmethod
     def describing_function(cls, amplitude, frequency=0.0, *, k, c, m):

@@ -37,16 +37,23 @@ quadratic with possibly complex or nearly equal roots, which is numerically frag
 ``gamma -> 0`` and ``c_sat -> inf``; :func:`saturated_describing_function` uses instead a
 fixed graded Gauss-Legendre rule, described there.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-from fitdf.params import ParamSpec
 from fitdf.models.base import HysteresisModel
+from fitdf.params import ParamSpec
 
 __all__ = [
-    "Rayleigh", "rayleigh_branch", "frohlich_kennelly", "remanence", "coercive_force",
-    "coercive_force_small_signal", "rayleigh_describing_function", "saturated_describing_function",
+    "Rayleigh",
+    "rayleigh_branch",
+    "frohlich_kennelly",
+    "remanence",
+    "coercive_force",
+    "coercive_force_small_signal",
+    "rayleigh_describing_function",
+    "saturated_describing_function",
 ]
 
 
@@ -191,7 +198,9 @@ def saturated_describing_function(amplitude, mu0, gamma, c_sat):
     numpy.ndarray of complex
         ``N`` (H); ``mu0`` at ``A = 0`` (the small-signal limit).
     """
-    arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (amplitude, mu0, gamma, c_sat)))
+    arrays = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (amplitude, mu0, gamma, c_sat))
+    )
     shape = arrays[0].shape
     A, mu0_f, gamma_f, c_f = (a.reshape(-1) for a in arrays)
     A = np.abs(A)
@@ -226,11 +235,27 @@ class Rayleigh(HysteresisModel):
     equations = "eqs 3.1, 3.7-3.11; Frohlich-Kennelly (sec III.1); DF from eqs 2.1, 2.2"
     closed_form = False
     params = (
-        ParamSpec("mu0", 100.0, (1.0, 1.0e4), "H", "initial (small-signal) inductance", "eq 3.1", log=True),
-        ParamSpec("gamma", 1.0e4, (1.0, 1.0e8), "H/A", "Rayleigh constant: rise of inductance with amplitude",
-                  "eqs 3.1, 3.7", log=True),
-        ParamSpec("c_sat", 0.03, (1.0e-4, 10.0), "V s", "saturation flux linkage of the Frohlich-Kennelly limiter",
-                  "sec III.1", log=True),
+        ParamSpec(
+            "mu0", 100.0, (1.0, 1.0e4), "H", "initial (small-signal) inductance", "eq 3.1", log=True
+        ),
+        ParamSpec(
+            "gamma",
+            1.0e4,
+            (1.0, 1.0e8),
+            "H/A",
+            "Rayleigh constant: rise of inductance with amplitude",
+            "eqs 3.1, 3.7",
+            log=True,
+        ),
+        ParamSpec(
+            "c_sat",
+            0.03,
+            (1.0e-4, 10.0),
+            "V s",
+            "saturation flux linkage of the Frohlich-Kennelly limiter",
+            "sec III.1",
+            log=True,
+        ),
     )
 
     @classmethod
@@ -258,7 +283,9 @@ class Rayleigh(HysteresisModel):
         numpy.ndarray of complex
             ``N`` with ``Im N <= 0``; ``mu0`` at ``A = 0``.
         """
-        shape = np.broadcast_shapes(*(np.shape(v) for v in (amplitude, frequency, mu0, gamma, c_sat)))
+        shape = np.broadcast_shapes(
+            *(np.shape(v) for v in (amplitude, frequency, mu0, gamma, c_sat))
+        )
         c_sat = np.asarray(c_sat, dtype=float)
         closed = rayleigh_describing_function(amplitude, mu0, gamma)
         if np.all(np.isinf(c_sat)):

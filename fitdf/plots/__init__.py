@@ -4,10 +4,39 @@
 (Graphs 4.1-4.7) from fitdf's models; :mod:`fitdf.plots.fits` draws fitted results
 (DF against amplitude, critical loci, residuals, posteriors, cross-impedance).
 """
-from fitdf.plots.fits import plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals
-from fitdf.plots.thesis import (THESIS_GRAPHS, graph_4_1, graph_4_2, graph_4_3, graph_4_4, graph_4_5,
-                     graph_4_6, graph_4_7, save_thesis_graphs)
 
-__all__ = ["THESIS_GRAPHS", "graph_4_1", "graph_4_2", "graph_4_3", "graph_4_4", "graph_4_5",
-           "graph_4_6", "graph_4_7", "save_thesis_graphs",
-           "plot_fit", "plot_critical_loci", "plot_residuals", "plot_corner", "plot_cross_impedance"]
+from fitdf.plots.fits import (
+    plot_corner,
+    plot_critical_loci,
+    plot_cross_impedance,
+    plot_fit,
+    plot_residuals,
+)
+from fitdf.plots.thesis import (
+    THESIS_GRAPHS,
+    graph_4_1,
+    graph_4_2,
+    graph_4_3,
+    graph_4_4,
+    graph_4_5,
+    graph_4_6,
+    graph_4_7,
+    save_thesis_graphs,
+)
+
+__all__ = [
+    "THESIS_GRAPHS",
+    "graph_4_1",
+    "graph_4_2",
+    "graph_4_3",
+    "graph_4_4",
+    "graph_4_5",
+    "graph_4_6",
+    "graph_4_7",
+    "save_thesis_graphs",
+    "plot_fit",
+    "plot_critical_loci",
+    "plot_residuals",
+    "plot_corner",
+    "plot_cross_impedance",
+]

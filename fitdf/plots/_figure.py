@@ -3,6 +3,7 @@
 No pyplot: figures are plain objects (nothing global, safe in worker processes), the
 caller saves or shows them. One resolution for every figure, so a report's images match.
 """
+
 from __future__ import annotations
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg

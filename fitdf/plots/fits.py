@@ -22,6 +22,7 @@ Examples
 >>> fig = plot_fit(fits)                                       # doctest: +SKIP
 >>> fig.savefig("b1.png")                                      # doctest: +SKIP
 """
+
 from __future__ import annotations
 
 import corner
@@ -31,7 +32,13 @@ from matplotlib.patches import Patch
 
 from fitdf.plots._figure import new_figure
 
-__all__ = ["plot_fit", "plot_critical_loci", "plot_residuals", "plot_corner", "plot_cross_impedance"]
+__all__ = [
+    "plot_fit",
+    "plot_critical_loci",
+    "plot_residuals",
+    "plot_corner",
+    "plot_cross_impedance",
+]
 
 MAG_LABEL = "|DF| (V/V)"
 PHASE_LABEL = "phase lead (deg)"
@@ -57,7 +64,11 @@ def _label(result, results):
 
 def _core_title(data):
     rows = data.rows
-    core = ", ".join(dict.fromkeys(rows["core"].astype(str))).capitalize() if "core" in rows else data.label
+    core = (
+        ", ".join(dict.fromkeys(rows["core"].astype(str))).capitalize()
+        if "core" in rows
+        else data.label
+    )
     tables = "+".join(data.groups)
     return core, tables
 
@@ -72,8 +83,11 @@ def _panels(data, frequencies, source_impedance):
     """(impedances, frequencies) to draw; frequencies default to every measured one."""
     rs = _rs_list(data, source_impedance)
     keep = np.isin(data.source_impedance, rs)
-    freqs = sorted(set(data.frequency[keep].tolist())) if frequencies is None else \
-        [float(f) for f in np.atleast_1d(frequencies)]
+    freqs = (
+        sorted(set(data.frequency[keep].tolist()))
+        if frequencies is None
+        else [float(f) for f in np.atleast_1d(frequencies)]
+    )
     if not rs or not freqs:
         raise ValueError("nothing to plot: no source impedance or frequency selected")
     return rs, freqs
@@ -83,7 +97,9 @@ def _amplitude_grid(a_min, a_max, n):
     """Fine grid that is smooth on a linear axis and resolves the smallest amplitudes."""
     a_min = max(float(a_min), 1e-4)
     a_max = max(float(a_max), a_min * 1.01)
-    return np.unique(np.concatenate([np.geomspace(a_min, a_max, n // 2), np.linspace(a_min, a_max, n - n // 2)]))
+    return np.unique(
+        np.concatenate([np.geomspace(a_min, a_max, n // 2), np.linspace(a_min, a_max, n - n // 2)])
+    )
 
 
 def _block(data, rs, f):
@@ -114,7 +130,9 @@ def _draw_measured(ax_mag, ax_ph, data, mask, marker="o", label="measured"):
 def _draw_excluded(ax_mag, ax_ph, excluded, rs, f):
     if excluded is None or len(excluded) == 0:
         return
-    e = excluded[(excluded["source_impedance_ohm"].astype(float) == rs) & (excluded["frequency_hz"] == f)]
+    e = excluded[
+        (excluded["source_impedance_ohm"].astype(float) == rs) & (excluded["frequency_hz"] == f)
+    ]
     e = e.dropna(subset=["input_v"])
     if e.empty:
         return
@@ -125,8 +143,9 @@ def _draw_excluded(ax_mag, ax_ph, excluded, rs, f):
 
 def _draw_band(ax_mag, ax_ph, post, a_range, f, rs, table, color):
     A = _amplitude_grid(*a_range, 60)  # the band is smooth; 60 points x 150 draws keeps it fast
-    band = post.predictive_band(A, np.full(A.shape, f), np.full(A.shape, rs), table=_table_for(post, table),
-                                max_draws=150)
+    band = post.predictive_band(
+        A, np.full(A.shape, f), np.full(A.shape, rs), table=_table_for(post, table), max_draws=150
+    )
     mag, ph = band["magnitude"], band["phase_deg"]
     for lo, hi, alpha in ((0, 4, 0.15), (1, 3, 0.3)):
         ax_mag.fill_between(A, mag[lo], mag[hi], color=color, alpha=alpha, lw=0)
@@ -156,17 +175,38 @@ def _label_pair(ax_mag, ax_ph, first_col, rs, many_rs, f):
 def _blank(ax_mag, ax_ph, rs, f):
     for ax in (ax_mag, ax_ph):
         ax.set_axis_off()
-    ax_mag.text(0.5, 0.5, f"no data at {f:g} c/s, {rs:g} ohm", ha="center", va="center",
-                transform=ax_mag.transAxes, color="0.5", fontsize="small")
+    ax_mag.text(
+        0.5,
+        0.5,
+        f"no data at {f:g} c/s, {rs:g} ohm",
+        ha="center",
+        va="center",
+        transform=ax_mag.transAxes,
+        color="0.5",
+        fontsize="small",
+    )
 
 
 def _legend(fig, handles, ncol=None):
-    fig.legend(handles=handles, loc="outside lower center", ncol=ncol or min(len(handles), 4),
-               fontsize="small", frameon=False)
+    fig.legend(
+        handles=handles,
+        loc="outside lower center",
+        ncol=ncol or min(len(handles), 4),
+        fontsize="small",
+        frameon=False,
+    )
 
 
 # ------------------------------------------------------------------ public figures
-def plot_fit(results, frequencies=None, band=None, source_impedance=None, excluded=None, n_grid=160, title=None):
+def plot_fit(
+    results,
+    frequencies=None,
+    band=None,
+    source_impedance=None,
+    excluded=None,
+    n_grid=160,
+    title=None,
+):
     """Measured DF magnitude and phase lead against input amplitude, with fitted curves.
 
     Parameters
@@ -216,22 +256,37 @@ def plot_fit(results, frequencies=None, band=None, source_impedance=None, exclud
             for i, r in enumerate(results):
                 pred = r.predict(A, f, rs, table=_table_for(r, table))
                 ax_mag.plot(A, np.abs(pred), color=f"C{i}", lw=1.4, ls=_STYLES[(i // 10) % 4])
-                ax_ph.plot(A, np.angle(pred, deg=True), color=f"C{i}", lw=1.4, ls=_STYLES[(i // 10) % 4])
+                ax_ph.plot(
+                    A, np.angle(pred, deg=True), color=f"C{i}", lw=1.4, ls=_STYLES[(i // 10) % 4]
+                )
             _draw_excluded(ax_mag, ax_ph, excluded, rs, f)
             _draw_measured(ax_mag, ax_ph, data, mask)
             _label_pair(ax_mag, ax_ph, j == 0, rs, many, f)
-    handles = [Line2D([], [], color="k", marker="o", ls="none", ms=4, label="measured (fitted rows)")]
+    handles = [
+        Line2D([], [], color="k", marker="o", ls="none", ms=4, label="measured (fitted rows)")
+    ]
     if excluded is not None and len(excluded):
-        handles.append(Line2D([], [], color="0.45", marker="x", ls="none", ms=6, label="excluded by the audit"))
-    handles += [Line2D([], [], color=f"C{i}", ls=_STYLES[(i // 10) % 4], label=_label(r, results))
-                for i, r in enumerate(results)]
+        handles.append(
+            Line2D([], [], color="0.45", marker="x", ls="none", ms=6, label="excluded by the audit")
+        )
+    handles += [
+        Line2D([], [], color=f"C{i}", ls=_STYLES[(i // 10) % 4], label=_label(r, results))
+        for i, r in enumerate(results)
+    ]
     if band:
-        handles.append(Patch(color=f"C{band_idx}", alpha=0.35,
-                             label=f"{band.model}: 68% / 95% posterior band of the curve"))
+        handles.append(
+            Patch(
+                color=f"C{band_idx}",
+                alpha=0.35,
+                label=f"{band.model}: 68% / 95% posterior band of the curve",
+            )
+        )
     _legend(fig, handles, ncol=min(len(handles), 5))
     core, tables = _core_title(data)
     rs_text = " and ".join(f"{v:g}" for v in rs_list)
-    fig.suptitle(title or f"{core} ({tables}), source impedance {rs_text} ohm: measured and fitted DF")
+    fig.suptitle(
+        title or f"{core} ({tables}), source impedance {rs_text} ohm: measured and fitted DF"
+    )
     return fig
 
 
@@ -249,7 +304,9 @@ def _loci_limits(points):
     return (x0 - px, x1 + px), (y0 - py, y1 + py)
 
 
-def plot_critical_loci(results, frequencies=None, top=1, source_impedance=None, ax=None, n_grid=240, title=None):
+def plot_critical_loci(
+    results, frequencies=None, top=1, source_impedance=None, ax=None, n_grid=240, title=None
+):
     """Critical loci ``-1/DF`` in the Nyquist plane per frequency (thesis Graphs 5.4-5.20).
 
     Measured rows give points ``-1/DF`` (rows with zero output have none); the first
@@ -283,7 +340,7 @@ def plot_critical_loci(results, frequencies=None, top=1, source_impedance=None, 
     else:
         fig = new_figure((6.2 * len(rs_list) + 0.6, 5.6))
         axes = list(fig.subplots(1, len(rs_list), squeeze=False)[0])
-    curves = results[:max(int(top), 0)]
+    curves = results[: max(int(top), 0)]
     for a, rs in zip(axes, rs_list):
         points = []
         for j, f in enumerate(freqs):
@@ -303,8 +360,12 @@ def plot_critical_loci(results, frequencies=None, top=1, source_impedance=None, 
                 good = np.flatnonzero(np.isfinite(L) & (np.abs(L) <= 1.0 / 0.15))
                 if i == 0 and good.size > 4:
                     k = good[good.size // 2]
-                    a.annotate("", xy=(L.real[k + 1], L.imag[k + 1]), xytext=(L.real[k], L.imag[k]),
-                               arrowprops=dict(arrowstyle="-|>", color=f"C{j}", lw=1.0, mutation_scale=10))
+                    a.annotate(
+                        "",
+                        xy=(L.real[k + 1], L.imag[k + 1]),
+                        xytext=(L.real[k], L.imag[k]),
+                        arrowprops=dict(arrowstyle="-|>", color=f"C{j}", lw=1.0, mutation_scale=10),
+                    )
         lim = _loci_limits(points)
         if lim:
             a.set_xlim(*lim[0])
@@ -315,10 +376,20 @@ def plot_critical_loci(results, frequencies=None, top=1, source_impedance=None, 
         a.set_ylabel("Im(-1/DF)")
         a.grid(True, lw=0.4, alpha=0.5)
         a.set_title(f"source impedance {rs:g} ohm", fontsize="medium")
-    handles = [Line2D([], [], color=f"C{j}", marker="o", ms=4, ls="none", label=f"{f:g} c/s measured")
-               for j, f in enumerate(freqs)]
-    handles += [Line2D([], [], color="0.2", ls=_STYLES[i % 4], label=f"{_label(r, results)} fit (arrow: A grows)")
-                for i, r in enumerate(curves)]
+    handles = [
+        Line2D([], [], color=f"C{j}", marker="o", ms=4, ls="none", label=f"{f:g} c/s measured")
+        for j, f in enumerate(freqs)
+    ]
+    handles += [
+        Line2D(
+            [],
+            [],
+            color="0.2",
+            ls=_STYLES[i % 4],
+            label=f"{_label(r, results)} fit (arrow: A grows)",
+        )
+        for i, r in enumerate(curves)
+    ]
     axes[-1].legend(handles=handles, fontsize="x-small", loc="best")
     core, tables = _core_title(data)
     text = title or f"Critical loci -1/DF, {core} ({tables})"
@@ -341,35 +412,64 @@ def plot_residuals(results, top=3, title=None):
     matplotlib.figure.Figure
         ``2 x min(top, len(results))`` axes.
     """
-    results = _as_list(results)[:max(int(top), 1)]
+    results = _as_list(results)[: max(int(top), 1)]
     fig = new_figure((max(3.6 * len(results), 6.5), 5.6))
     axes = fig.subplots(2, len(results), squeeze=False, sharey="row", sharex="col")
-    freqs = sorted(set(np.concatenate([r.residuals["frequency_hz"].to_numpy(float) for r in results]).tolist()))
-    impedances = sorted(set(np.concatenate([r.residuals["source_impedance_ohm"].to_numpy(float)
-                                            for r in results]).tolist()))
+    freqs = sorted(
+        set(np.concatenate([r.residuals["frequency_hz"].to_numpy(float) for r in results]).tolist())
+    )
+    impedances = sorted(
+        set(
+            np.concatenate(
+                [r.residuals["source_impedance_ohm"].to_numpy(float) for r in results]
+            ).tolist()
+        )
+    )
     markers = dict(zip(impedances, "os^D"))
     for j, r in enumerate(results):
         res = r.residuals
         top_ax, bottom = axes[0, j], axes[1, j]
         for (rs, f), g in res.groupby(["source_impedance_ohm", "frequency_hz"]):
             color = f"C{freqs.index(f)}"
-            top_ax.plot(g["input_v"], g["magnitude_residual"], markers[rs], color=color, ms=4, ls="-", lw=0.6)
+            top_ax.plot(
+                g["input_v"],
+                g["magnitude_residual"],
+                markers[rs],
+                color=color,
+                ms=4,
+                ls="-",
+                lw=0.6,
+            )
             ok = g["phase_residual_deg"].notna()
-            bottom.plot(g["input_v"][ok], g["phase_residual_deg"][ok], markers[rs], color=color, ms=4, ls="-", lw=0.6)
+            bottom.plot(
+                g["input_v"][ok],
+                g["phase_residual_deg"][ok],
+                markers[rs],
+                color=color,
+                ms=4,
+                ls="-",
+                lw=0.6,
+            )
         m = r.metrics
-        top_ax.set_title(f"{_label(r, results)}\nRMS |DF| {m['rms_magnitude']:.3f}, phase {m['rms_phase_deg']:.1f} deg",
-                         fontsize="medium")
+        top_ax.set_title(
+            f"{_label(r, results)}\nRMS |DF| {m['rms_magnitude']:.3f}, phase {m['rms_phase_deg']:.1f} deg",
+            fontsize="medium",
+        )
         for a in (top_ax, bottom):
             a.axhline(0.0, color="0.5", lw=0.8)
             a.grid(True, lw=0.4, alpha=0.5)
         bottom.set_xlabel(AMP_LABEL)
     axes[0, 0].set_ylabel("|DF| residual (fit - measured)")
     axes[1, 0].set_ylabel("phase-lead residual (deg)")
-    handles = [Line2D([], [], color=f"C{i}", marker="o", ls="none", ms=4, label=f"{f:g} c/s")
-               for i, f in enumerate(freqs)]
+    handles = [
+        Line2D([], [], color=f"C{i}", marker="o", ls="none", ms=4, label=f"{f:g} c/s")
+        for i, f in enumerate(freqs)
+    ]
     if len(impedances) > 1:
-        handles += [Line2D([], [], color="0.3", marker=markers[rs], ls="none", ms=4, label=f"{rs:g} ohm")
-                    for rs in impedances]
+        handles += [
+            Line2D([], [], color="0.3", marker=markers[rs], ls="none", ms=4, label=f"{rs:g} ohm")
+            for rs in impedances
+        ]
     _legend(fig, handles, ncol=min(len(handles), 8))
     core, tables = _core_title(results[0].problem.data)
     fig.suptitle(title or f"Residuals of the top {len(results)} models, {core} ({tables})")
@@ -402,7 +502,9 @@ def plot_corner(posterior, max_draws=4000, truths=None, title=None):
     problem = posterior.problem
     flat = posterior.flat_internal(max_draws=max_draws, seed=0)
     if truths is not None:
-        values = truths.values if isinstance(getattr(truths, "values", None), dict) else dict(truths)
+        values = (
+            truths.values if isinstance(getattr(truths, "values", None), dict) else dict(truths)
+        )
     cols, labels, mark = [], [], []
     for i, s in enumerate(problem.specs):
         unit = s.unit if s.unit and s.unit != "1" else ""
@@ -419,25 +521,39 @@ def plot_corner(posterior, max_draws=4000, truths=None, title=None):
     P = samples.shape[1]
     size = max(6.0, 1.55 * P + 1.0)
     fig = new_figure((size, size), layout=None)
-    corner.corner(samples, fig=fig, labels=labels, quantiles=[0.16, 0.5, 0.84], show_titles=True,
-                  title_fmt=".3g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8},
-                  truths=None if truths is None else mark, max_n_ticks=3, plot_datapoints=False,
-                  fill_contours=True, smooth=1.0)
+    corner.corner(
+        samples,
+        fig=fig,
+        labels=labels,
+        quantiles=[0.16, 0.5, 0.84],
+        show_titles=True,
+        title_fmt=".3g",
+        title_kwargs={"fontsize": 8},
+        label_kwargs={"fontsize": 8},
+        truths=None if truths is None else mark,
+        max_n_ticks=3,
+        plot_datapoints=False,
+        fill_contours=True,
+        smooth=1.0,
+    )
     for a in fig.axes:
         a.tick_params(labelsize=7)
     fig.subplots_adjust(top=1.0 - 0.9 / size)  # room for the title above the first histogram's
     d = posterior.diagnostics
     conv = "converged" if d.get("converged") else "NOT converged"
     rhat = max(d.get("rhat", {"": np.nan}).values())
-    text = title or (f"Posterior of {posterior.model} on {posterior.label}: {conv}\n"
-                     f"(steps/tau {d.get('steps_over_tau', np.nan):.0f}, max R-hat {rhat:.3f}"
-                     + ("; blue lines: least-squares optimum)" if truths is not None else ")"))
+    text = title or (
+        f"Posterior of {posterior.model} on {posterior.label}: {conv}\n"
+        f"(steps/tau {d.get('steps_over_tau', np.nan):.0f}, max R-hat {rhat:.3f}"
+        + ("; blue lines: least-squares optimum)" if truths is not None else ")")
+    )
     fig.suptitle(text, fontsize="medium", y=1.0 - 0.12 / size)
     return fig
 
 
-def plot_cross_impedance(train_results, test_data, calibration_gains=None, frequencies=None, n_grid=160,
-                         title=None):
+def plot_cross_impedance(
+    train_results, test_data, calibration_gains=None, frequencies=None, n_grid=160, title=None
+):
     """A fit at one source impedance and its prediction of the data at another.
 
     Top rows: the training data with the fitted curves; bottom rows: the other
@@ -463,11 +579,16 @@ def plot_cross_impedance(train_results, test_data, calibration_gains=None, frequ
     test = test_data
     gains = dict(calibration_gains or {})
     rs_train, rs_test = _rs_list(train, None), _rs_list(test, None)
-    freqs = sorted(set(train.frequency.tolist()) | set(test.frequency.tolist())) if frequencies is None else \
-        [float(f) for f in np.atleast_1d(frequencies)]
+    freqs = (
+        sorted(set(train.frequency.tolist()) | set(test.frequency.tolist()))
+        if frequencies is None
+        else [float(f) for f in np.atleast_1d(frequencies)]
+    )
     fig = new_figure((max(3.1 * len(freqs), 6.5), 2.3 * 4 + 1.4))
     axes = _pair_axes(fig, 2, len(freqs))
-    for p, (data, rs, predicted) in enumerate(((train, rs_train[0], False), (test, rs_test[0], True))):
+    for p, (data, rs, predicted) in enumerate(
+        ((train, rs_train[0], False), (test, rs_test[0], True))
+    ):
         for j, f in enumerate(freqs):
             ax_mag, ax_ph = axes[2 * p, j], axes[2 * p + 1, j]
             mask, table = _block(data, rs, f)
@@ -487,10 +608,17 @@ def plot_cross_impedance(train_results, test_data, calibration_gains=None, frequ
             _draw_measured(ax_mag, ax_ph, data, mask)
             _label_pair(ax_mag, ax_ph, j == 0, rs, True, f)
     handles = [Line2D([], [], color="k", marker="o", ls="none", ms=4, label="measured")]
-    handles += [Line2D([], [], color=f"C{i}", label=f"{_label(r, results)}: fit (solid), prediction (dashed)")
-                for i, r in enumerate(results)]
+    handles += [
+        Line2D(
+            [], [], color=f"C{i}", label=f"{_label(r, results)}: fit (solid), prediction (dashed)"
+        )
+        for i, r in enumerate(results)
+    ]
     _legend(fig, handles, ncol=min(len(handles), 3))
     core, _ = _core_title(train)
-    fig.suptitle(title or f"{core}: fitted at {rs_train[0]:g} ohm ({'+'.join(train.groups)}, top), "
-                          f"predicting {rs_test[0]:g} ohm ({'+'.join(test.groups)}, bottom)")
+    fig.suptitle(
+        title
+        or f"{core}: fitted at {rs_train[0]:g} ohm ({'+'.join(train.groups)}, top), "
+        f"predicting {rs_test[0]:g} ohm ({'+'.join(test.groups)}, bottom)"
+    )
     return fig

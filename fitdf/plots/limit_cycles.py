@@ -14,6 +14,7 @@ Like :mod:`fitdf.plots.thesis`, figures are built on the Agg canvas without
 ``pyplot``: no global backend switch and no figure registry that could leak (and warn,
 an error under ``filterwarnings = error``). Every function returns the Figure.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -60,8 +61,11 @@ def plot_nyquist(response, ax=None, gains=None, omegas=None, n_gains=3, n_loci=4
     gains = _pick(response.gains, n_gains) if gains is None else np.atleast_1d(gains)
     cycles = response.intersections
     if omegas is None:
-        omegas = _pick([c.omega for c in cycles], n_loci) if cycles else \
-            np.geomspace(*response.omega_range, n_loci + 2)[1:-1]
+        omegas = (
+            _pick([c.omega for c in cycles], n_loci)
+            if cycles
+            else np.geomspace(*response.omega_range, n_loci + 2)[1:-1]
+        )
     w = np.geomspace(*response.omega_range, n_points)
     A = np.geomspace(*response.amplitude_range, n_points)
     pts = [0j]
@@ -71,12 +75,27 @@ def plot_nyquist(response, ax=None, gains=None, omegas=None, n_gains=3, n_loci=4
     for k, om in enumerate(np.atleast_1d(omegas)):
         with np.errstate(all="ignore"):
             loc = -1.0 / np.asarray(N(A, np.full_like(A, om)), complex)
-        ax.plot(loc.real, loc.imag, color="0.35", lw=1.0, ls=("-", "--", ":", "-.")[k % 4],
-                label=f"-1/N(A), w = {om:.3g} rad/s")
+        ax.plot(
+            loc.real,
+            loc.imag,
+            color="0.35",
+            lw=1.0,
+            ls=("-", "--", ":", "-.")[k % 4],
+            label=f"-1/N(A), w = {om:.3g} rad/s",
+        )
         pts.extend(loc[np.isfinite(loc)])
-    for c in sorted(cycles, key=lambda c: c.stable):   # stable (small, filled) on top of unstable rings
-        ax.plot(c.G.real, c.G.imag, "o", color="k", mfc="k" if c.stable else "white", ms=6 if c.stable else 11,
-                zorder=6 if c.stable else 5)
+    for c in sorted(
+        cycles, key=lambda c: c.stable
+    ):  # stable (small, filled) on top of unstable rings
+        ax.plot(
+            c.G.real,
+            c.G.imag,
+            "o",
+            color="k",
+            mfc="k" if c.stable else "white",
+            ms=6 if c.stable else 11,
+            zorder=6 if c.stable else 5,
+        )
         pts.append(c.G)
     if cycles:
         ax.plot([], [], "o", color="k", mfc="k", label="stable cycle")
@@ -115,14 +134,39 @@ def plot_thesis_comparison(df):
             live = b[~b["dies_out"]]
             dead = b[b["dies_out"]]
             label = f"{rs:g} ohm ({b['table'].iloc[0]}, {b['model'].iloc[0]})"
-            for i, (meas, pred) in enumerate((("amplitude_v", "amplitude_pred"), ("omega_rad_s", "omega_pred"))):
+            for i, (meas, pred) in enumerate(
+                (("amplitude_v", "amplitude_pred"), ("omega_rad_s", "omega_pred"))
+            ):
                 ax = axes[i, j]
-                ax.plot(live["system_gain"], live[meas], marker, color=color, mfc="none", label=f"measured {label}")
-                ax.plot(b["system_gain"], b[pred], "-", color=color, lw=1.3, label=f"predicted {rs:g} ohm")
+                ax.plot(
+                    live["system_gain"],
+                    live[meas],
+                    marker,
+                    color=color,
+                    mfc="none",
+                    label=f"measured {label}",
+                )
+                ax.plot(
+                    b["system_gain"],
+                    b[pred],
+                    "-",
+                    color=color,
+                    lw=1.3,
+                    label=f"predicted {rs:g} ohm",
+                )
                 sim = {"amplitude_pred": "amplitude_sim", "omega_pred": "omega_sim"}[pred]
                 if sim in b:
-                    ax.plot(b["system_gain"], b[sim], "+", color=color, ms=7, label=f"simulated {rs:g} ohm")
-                shown = dead[np.isfinite(dead[meas])]    # the tables print values for some of these rows
+                    ax.plot(
+                        b["system_gain"],
+                        b[sim],
+                        "+",
+                        color=color,
+                        ms=7,
+                        label=f"simulated {rs:g} ohm",
+                    )
+                shown = dead[
+                    np.isfinite(dead[meas])
+                ]  # the tables print values for some of these rows
                 if not shown.empty:
                     ax.plot(shown["system_gain"], shown[meas], "x", color=color, ms=8)
                 crit = b["critical_gain_pred"].iloc[0]
@@ -136,8 +180,10 @@ def plot_thesis_comparison(df):
             ax.set_xscale("log")
         axes[0, j].legend(fontsize="x-small")
     alpha, beta = df.attrs.get("alpha", np.nan), df.attrs.get("beta", np.nan)
-    fig.suptitle(f"Tables 5.1/5.2 vs harmonic balance: G(s/{alpha:.3g}), loop gain {beta:.3g} K",
-                 fontsize="medium")
+    fig.suptitle(
+        f"Tables 5.1/5.2 vs harmonic balance: G(s/{alpha:.3g}), loop gain {beta:.3g} K",
+        fontsize="medium",
+    )
     return fig
 
 

@@ -10,22 +10,36 @@ The thesis computed its graphs on an IBM 1620 with ``k = 1`` and ``c = 5``; so d
 these, so inputs and outputs are in the thesis's normalised units (``N`` in units of
 ``k``, amplitudes in the units of ``c/k``).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
-from fitdf.plots._figure import DPI, new_figure
 from fitdf.models.cubic_hc import KS_MAGNET_STEEL, CubicHc, cubic_width, ks_magnet_steel_hc
-from fitdf.models.proportional_width import (ProportionalWidth, ProportionalWidthFig42,
-                                         saturation_amplitude)
+from fitdf.models.proportional_width import (
+    ProportionalWidth,
+    ProportionalWidthFig42,
+    saturation_amplitude,
+)
+from fitdf.plots._figure import DPI, new_figure
 
-__all__ = ["graph_4_1", "graph_4_2", "graph_4_3", "graph_4_4", "graph_4_5", "graph_4_6",
-           "graph_4_7", "save_thesis_graphs", "THESIS_GRAPHS", "KS_SATURATION_C"]
+__all__ = [
+    "graph_4_1",
+    "graph_4_2",
+    "graph_4_3",
+    "graph_4_4",
+    "graph_4_5",
+    "graph_4_6",
+    "graph_4_7",
+    "save_thesis_graphs",
+    "THESIS_GRAPHS",
+    "KS_SATURATION_C",
+]
 
 FIGSIZE = (6.5, 4.5)
-K, C = 1.0, 5.0                       # the thesis's k = 1, c = 5
+K, C = 1.0, 5.0  # the thesis's k = 1, c = 5
 M_CURVES = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
 A_LABEL = "input amplitude A (units of c/k; k = 1, c = 5)"
 N_LABEL = "|N| (units of k)"
@@ -63,8 +77,13 @@ def _df_vs_a(axes, model, ms, a_max=60.0):
         mag.plot(A, np.abs(N), color=f"C{i}", label=f"m = {m:g}")
         phase.plot(A, np.degrees(np.angle(N)), color=f"C{i}")
         a_sat = saturation_amplitude(K, C, m)
-        mag.plot([a_sat], [np.abs(model.describing_function(a_sat, k=K, c=C, m=m))], "o",
-                 color=f"C{i}", ms=3)
+        mag.plot(
+            [a_sat],
+            [np.abs(model.describing_function(a_sat, k=K, c=C, m=m))],
+            "o",
+            color=f"C{i}",
+            ms=3,
+        )
     mag.set_ylabel(N_LABEL)
     mag.legend(fontsize="x-small", ncol=2)
     phase.set_ylabel(PHASE_LABEL)
@@ -82,17 +101,24 @@ def _loci(ax, model, ms, a_max=200.0):
         for a in (1.5 * a_sat, 4.0 * a_sat):
             j = int(np.searchsorted(A, a))
             if j + 1 < A.size:
-                ax.annotate("", xy=(L.real[j + 1], L.imag[j + 1]), xytext=(L.real[j], L.imag[j]),
-                            arrowprops=dict(arrowstyle="-|>", color=f"C{i}", lw=1.2,
-                                            mutation_scale=12))
+                ax.annotate(
+                    "",
+                    xy=(L.real[j + 1], L.imag[j + 1]),
+                    xytext=(L.real[j], L.imag[j]),
+                    arrowprops=dict(arrowstyle="-|>", color=f"C{i}", lw=1.2, mutation_scale=12),
+                )
     ax.axhline(0.0, color="0.7", lw=0.6)
     ax.axvline(0.0, color="0.7", lw=0.6)
     ax.set_xlim(-8.0, 0.5)
     ax.set_ylim(-4.0, 0.5)
     ax.set_xlabel("Re(-1/N) (units of 1/k)")
     ax.set_ylabel("Im(-1/N) (units of 1/k)")
-    ax.legend(fontsize="x-small", loc="lower right", title="dots: A <= A_sat; arrows: A grows",
-              title_fontsize="x-small")
+    ax.legend(
+        fontsize="x-small",
+        loc="lower right",
+        title="dots: A <= A_sat; arrows: A grows",
+        title_fontsize="x-small",
+    )
 
 
 def graph_4_1():
@@ -101,8 +127,9 @@ def graph_4_1():
     Top: ``|N|``, ``Re N``, ``Im N``; bottom: phase. ``A`` does not enter (``c = inf``);
     ``m = 0`` gives ``1 at 0 degrees``. Two axes.
     """
-    return _df_vs_m(ProportionalWidth, "Graph 4.1: DF of the non-saturating model "
-                                       "(Fig 2.3 loop, b = mA)")
+    return _df_vs_m(
+        ProportionalWidth, "Graph 4.1: DF of the non-saturating model (Fig 2.3 loop, b = mA)"
+    )
 
 
 def graph_4_2(ms=M_CURVES):
@@ -136,8 +163,9 @@ def graph_4_4():
 
     Same layout as :func:`graph_4_1` (two axes); equal to it at ``m = 0.5``.
     """
-    return _df_vs_m(ProportionalWidthFig42, "Graph 4.4: DF of the second model "
-                                            "(Fig 4.2 loop), no saturation")
+    return _df_vs_m(
+        ProportionalWidthFig42, "Graph 4.4: DF of the second model (Fig 4.2 loop), no saturation"
+    )
 
 
 def graph_4_5(ms=M_CURVES):
@@ -209,8 +237,15 @@ def graph_4_7(c=KS_SATURATION_C):
 
 
 #: Thesis graph number -> function.
-THESIS_GRAPHS = {"4.1": graph_4_1, "4.2": graph_4_2, "4.3": graph_4_3, "4.4": graph_4_4,
-                 "4.5": graph_4_5, "4.6": graph_4_6, "4.7": graph_4_7}
+THESIS_GRAPHS = {
+    "4.1": graph_4_1,
+    "4.2": graph_4_2,
+    "4.3": graph_4_3,
+    "4.4": graph_4_4,
+    "4.5": graph_4_5,
+    "4.6": graph_4_6,
+    "4.7": graph_4_7,
+}
 
 
 def save_thesis_graphs(outdir) -> list[Path]:

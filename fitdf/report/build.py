@@ -24,6 +24,7 @@ Atomic output
     (two renames, the old report restored if the second fails): an interrupted or
     failed run leaves the previous report as it was.
 """
+
 from __future__ import annotations
 
 import json
@@ -33,11 +34,10 @@ import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass
 from multiprocessing import get_context
 from pathlib import Path
 
-import numpy as np
 from tqdm.auto import tqdm
 
 from fitdf import __version__
@@ -46,10 +46,17 @@ from fitdf.inference.api import fit
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
 from fitdf.models import model_names
-from fitdf.report import sections as rs
 from fitdf.report import render
+from fitdf.report import sections as rs
 
-__all__ = ["generate_report", "ReportSettings", "BLOCKS", "CROSS_DIRECTIONS", "collect", "write_outputs"]
+__all__ = [
+    "generate_report",
+    "ReportSettings",
+    "BLOCKS",
+    "CROSS_DIRECTIONS",
+    "collect",
+    "write_outputs",
+]
 
 
 @dataclass(frozen=True)
@@ -57,7 +64,7 @@ class Block:
     """One set of rows fitted together."""
 
     key: str
-    data: str            # name for fitdf.datasets.load / fitdf.fit
+    data: str  # name for fitdf.datasets.load / fitdf.fit
     core: str
     title: str
 
@@ -69,12 +76,26 @@ BLOCKS = (
     Block("B.2", "B.2", "deltamax", "Deltamax at 0 ohm (Table B.2)"),
     Block("B.5", "B.5", "deltamax", "Deltamax at 600 ohm (Table B.5)"),
     Block("B.4", "B.4", "supermalloy", "Supermalloy at 600 ohm (Table B.4)"),
-    Block("permalloy-joint", "permalloy", "permalloy", "Permalloy at 0 and 600 ohm jointly (Tables B.1 + B.3)"),
-    Block("deltamax-joint", "deltamax", "deltamax", "Deltamax at 0 and 600 ohm jointly (Tables B.2 + B.5)"),
+    Block(
+        "permalloy-joint",
+        "permalloy",
+        "permalloy",
+        "Permalloy at 0 and 600 ohm jointly (Tables B.1 + B.3)",
+    ),
+    Block(
+        "deltamax-joint",
+        "deltamax",
+        "deltamax",
+        "Deltamax at 0 and 600 ohm jointly (Tables B.2 + B.5)",
+    ),
 )
 #: Cross-impedance predictions: (core, train ohm, test ohm, train block, test block).
-CROSS_DIRECTIONS = (("permalloy", 0.0, 600.0, "B.1", "B.3"), ("permalloy", 600.0, 0.0, "B.3", "B.1"),
-                    ("deltamax", 0.0, 600.0, "B.2", "B.5"), ("deltamax", 600.0, 0.0, "B.5", "B.2"))
+CROSS_DIRECTIONS = (
+    ("permalloy", 0.0, 600.0, "B.1", "B.3"),
+    ("permalloy", 600.0, 0.0, "B.3", "B.1"),
+    ("deltamax", 0.0, 600.0, "B.2", "B.5"),
+    ("deltamax", 600.0, 0.0, "B.5", "B.2"),
+)
 #: Blocks whose fits the limit-cycle comparison uses (thesis Tables 5.1, 5.2).
 LIMIT_CYCLE_BLOCKS = ("B.1", "B.3", "B.2", "B.5")
 
@@ -126,7 +147,7 @@ class ReportSettings:
     workers: int = 2
 
     @classmethod
-    def for_run(cls, quick: bool = False, methods=("lsq", "mcmc")) -> "ReportSettings":
+    def for_run(cls, quick: bool = False, methods=("lsq", "mcmc")) -> ReportSettings:
         """The default settings, or the quick ones: least squares only (the same models,
         starts and seeds, so the same rankings), no cross-validation, one model per
         cross-impedance direction; every section is still produced."""
@@ -163,8 +184,9 @@ def _job_cv(lsq, seed, n_starts):
 
 
 def _job_cross(core, model, train_ohm, test_ohm, seed, n_starts):
-    return cross_impedance(core, models=[model], train_ohm=train_ohm, test_ohm=test_ohm, seed=seed,
-                           n_starts=n_starts).to_dict(orient="records")
+    return cross_impedance(
+        core, models=[model], train_ohm=train_ohm, test_ohm=test_ohm, seed=seed, n_starts=n_starts
+    ).to_dict(orient="records")
 
 
 def _job_limit_cycles(seed, models, n_starts, figdir):
@@ -205,13 +227,17 @@ class _Runner:
 
     def run(self, jobs: dict, desc: str) -> dict:
         out = {}
-        with tqdm(total=len(jobs), desc=desc, file=sys.stderr, disable=not self.progress, leave=True) as bar:
+        with tqdm(
+            total=len(jobs), desc=desc, file=sys.stderr, disable=not self.progress, leave=True
+        ) as bar:
             if self.pool is None:
                 for key, (fn, args) in jobs.items():
                     out[key] = _timed(fn, *args)
                     bar.update(1)
             else:
-                futures = {self.pool.submit(_timed, fn, *args): key for key, (fn, args) in jobs.items()}
+                futures = {
+                    self.pool.submit(_timed, fn, *args): key for key, (fn, args) in jobs.items()
+                }
                 for fut in as_completed(futures):
                     out[futures[fut]] = fut.result()
                     bar.update(1)
@@ -232,13 +258,19 @@ def _long_first(item):
 
 
 def _top(ranked: list[str], n):
-    return list(ranked) if n is None else list(ranked)[:max(int(n), 0)]
+    return list(ranked) if n is None else list(ranked)[: max(int(n), 0)]
 
 
 def _least_squares(settings, seed, runner, models, blocks) -> dict:
     """Every model on every block; costly models and large blocks first (a short pool tail)."""
-    order = sorted(((b, m) for b in blocks for m in models),
-                   key=lambda bm: (-rs.expected_cost(bm[0].data, bm[1]), blocks.index(bm[0]), models.index(bm[1])))
+    order = sorted(
+        ((b, m) for b in blocks for m in models),
+        key=lambda bm: (
+            -rs.expected_cost(bm[0].data, bm[1]),
+            blocks.index(bm[0]),
+            models.index(bm[1]),
+        ),
+    )
     jobs = {(b.key, m): (_job_lsq, (b.data, m, seed, settings.n_starts)) for b, m in order}
     return runner.run(jobs, "least squares")
 
@@ -248,17 +280,31 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
     jobs = {}
     if settings.limit_cycles:
         winners = rs.aicc_winners(lsq, models, LIMIT_CYCLE_BLOCKS)
-        jobs[("limit",)] = (_job_limit_cycles, (seed, winners or None, settings.n_starts, str(figdir)))
+        jobs[("limit",)] = (
+            _job_limit_cycles,
+            (seed, winners or None, settings.n_starts, str(figdir)),
+        )
     for b in blocks:
         for m in _top(ranked[b.key], settings.mcmc_top if "mcmc" in settings.methods else 0):
-            jobs[("mcmc", b.key, m)] = (_job_mcmc, (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers))
+            jobs[("mcmc", b.key, m)] = (
+                _job_mcmc,
+                (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers),
+            )
         for m in _top(ranked[b.key], settings.cv_top):
             jobs[("cv", b.key, m)] = (_job_cv, (lsq[(b.key, m)], seed, settings.cv_starts))
     for core, train, test, train_key, _ in settings.cross:
         for m in _top(ranked.get(train_key, models), settings.cross_top):
-            jobs[("cross", core, train, test, m)] = (_job_cross, (core, m, train, test, seed, settings.n_starts))
-    done = runner.run(dict(sorted(jobs.items(), key=_long_first)), "MCMC, CV, cross-impedance, limit cycles")
-    out = {kind: {k[1:]: v for k, v in done.items() if k[0] == kind} for kind in ("mcmc", "cv", "cross")}
+            jobs[("cross", core, train, test, m)] = (
+                _job_cross,
+                (core, m, train, test, seed, settings.n_starts),
+            )
+    done = runner.run(
+        dict(sorted(jobs.items(), key=_long_first)), "MCMC, CV, cross-impedance, limit cycles"
+    )
+    out = {
+        kind: {k[1:]: v for k, v in done.items() if k[0] == kind}
+        for kind in ("mcmc", "cv", "cross")
+    }
     out["limit"] = done.get(("limit",))
     return out
 
@@ -267,15 +313,21 @@ def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
     mcmc, cross = second["mcmc"], second["cross"]
     jobs = {}
     for b in blocks:
-        payload = rs.block_payload(b, [lsq[(b.key, m)] for m in ranked[b.key]],
-                                   [mcmc[(b.key, m)] for m in ranked[b.key] if (b.key, m) in mcmc], settings)
+        payload = rs.block_payload(
+            b,
+            [lsq[(b.key, m)] for m in ranked[b.key]],
+            [mcmc[(b.key, m)] for m in ranked[b.key] if (b.key, m) in mcmc],
+            settings,
+        )
         jobs[("block", b.key)] = (_job_figures, ("block", payload, str(figdir)))
     for core, train, test, train_key, test_key in settings.cross:
         ms = [m for m in ranked.get(train_key, []) if (core, train, test, m) in cross]
-        if ms:   # the training fits are the report's own fits of the training block (same data, seed, starts)
-            payload = {"direction": (core, train, test, train_key, test_key),
-                       "gains": {m: cross[(core, train, test, m)][0]["calibration_gain"] for m in ms},
-                       "train": [lsq[(train_key, m)] for m in ms]}
+        if ms:  # the training fits are the report's own fits of the training block (same data, seed, starts)
+            payload = {
+                "direction": (core, train, test, train_key, test_key),
+                "gains": {m: cross[(core, train, test, m)][0]["calibration_gain"] for m in ms},
+                "train": [lsq[(train_key, m)] for m in ms],
+            }
             jobs[("cross", core, train, test)] = (_job_figures, ("cross", payload, str(figdir)))
     jobs[("thesis",)] = (_job_figures, ("thesis", None, str(figdir)))
     return runner.run(jobs, "figures")
@@ -287,22 +339,39 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) 
     timing = {}
     t0 = time.perf_counter()
     lsq = _least_squares(settings, seed, runner, models, blocks)
-    ranked = {b.key: list(ranking_table([lsq[(b.key, m)] for m in models])["model"]) for b in blocks}
+    ranked = {
+        b.key: list(ranking_table([lsq[(b.key, m)] for m in models])["model"]) for b in blocks
+    }
     t1 = time.perf_counter()
     second = _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir)
     t2 = time.perf_counter()
     figures = _figures(settings, runner, blocks, lsq, ranked, second, figdir)
-    timing.update({"least_squares_s": t1 - t0, "mcmc_cv_cross_limit_s": t2 - t1,
-                   "figures_s": time.perf_counter() - t2})
+    timing.update(
+        {
+            "least_squares_s": t1 - t0,
+            "mcmc_cv_cross_limit_s": t2 - t1,
+            "figures_s": time.perf_counter() - t2,
+        }
+    )
 
     def pick(kind, key):
         return {m: second[kind][(key, m)] for m in ranked[key] if (key, m) in second[kind]}
 
     results = {
-        "blocks": {b.key: rs.block_record(b, [lsq[(b.key, m)] for m in ranked[b.key]], pick("mcmc", b.key),
-                                          pick("cv", b.key), figures[("block", b.key)]) for b in blocks},
+        "blocks": {
+            b.key: rs.block_record(
+                b,
+                [lsq[(b.key, m)] for m in ranked[b.key]],
+                pick("mcmc", b.key),
+                pick("cv", b.key),
+                figures[("block", b.key)],
+            )
+            for b in blocks
+        },
         "cross_impedance": rs.cross_record(settings.cross, second["cross"], figures),
-        "limit_cycles": second["limit"] if second["limit"] is not None else rs.limit_cycles_switched_off(),
+        "limit_cycles": second["limit"]
+        if second["limit"] is not None
+        else rs.limit_cycles_switched_off(),
         "audit": rs.audit_record(),
         "thesis_graphs": figures[("thesis",)],
         "models": rs.model_descriptions(models),
@@ -338,8 +407,15 @@ def _swap_in(tmp: Path, out_dir: Path) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
-def generate_report(out_dir="reports", seed: int = 0, quick: bool = False, progress: bool = True,
-                    methods=("lsq", "mcmc"), *, settings: ReportSettings | None = None) -> Path:
+def generate_report(
+    out_dir="reports",
+    seed: int = 0,
+    quick: bool = False,
+    progress: bool = True,
+    methods=("lsq", "mcmc"),
+    *,
+    settings: ReportSettings | None = None,
+) -> Path:
     """Fit, rank and plot everything and write the report into ``out_dir`` atomically.
 
     Parameters
@@ -383,16 +459,24 @@ def generate_report(out_dir="reports", seed: int = 0, quick: bool = False, progr
         total = time.perf_counter() - start
         results["timing"]["total_s"] = total
         results["timing"]["workers"] = settings.workers
-        results = {"fitdf_version": __version__, "seed": int(seed), "quick": bool(quick),
-                   "settings": _settings_record(settings), **results}
+        results = {
+            "fitdf_version": __version__,
+            "seed": int(seed),
+            "quick": bool(quick),
+            "settings": _settings_record(settings),
+            **results,
+        }
         write_outputs(results, tmp)
         _swap_in(tmp, out_dir)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     if progress:
-        print(f"fitdf report: wrote {out_dir} in {time.perf_counter() - start:.0f} s "
-              f"({settings.workers} worker{'s' if settings.workers > 1 else ''})", file=sys.stderr)
+        print(
+            f"fitdf report: wrote {out_dir} in {time.perf_counter() - start:.0f} s "
+            f"({settings.workers} worker{'s' if settings.workers > 1 else ''})",
+            file=sys.stderr,
+        )
     return out_dir
 
 

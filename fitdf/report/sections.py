@@ -5,6 +5,7 @@ Helpers of :mod:`fitdf.report`: they turn fit results into plain dicts (what
 block's figures (run inside the report's worker processes), and write the "Findings"
 sentences from the numbers alone.
 """
+
 from __future__ import annotations
 
 import io
@@ -20,15 +21,32 @@ from fitdf.data import audit, datasets
 from fitdf.inference.api import resolve_data
 from fitdf.inference.ranking import best_by_aicc, ranking_table
 from fitdf.models import get_model
-from fitdf.plots import (plot_corner, plot_critical_loci, plot_cross_impedance, plot_fit, plot_residuals,
-                         save_thesis_graphs)
+from fitdf.plots import (
+    plot_corner,
+    plot_critical_loci,
+    plot_cross_impedance,
+    plot_fit,
+    plot_residuals,
+    save_thesis_graphs,
+)
 from fitdf.plots.limit_cycles import plot_thesis_comparison
 from fitdf.plots.thesis import THESIS_GRAPHS
 from fitdf.thesis import thesis_limit_cycle_comparison
 
-__all__ = ["block_record", "block_payload", "make_figures", "cross_record", "audit_record", "findings",
-           "limit_cycle_section", "limit_cycles_switched_off", "model_descriptions",
-           "aicc_winners", "expected_cost", "clean"]
+__all__ = [
+    "block_record",
+    "block_payload",
+    "make_figures",
+    "cross_record",
+    "audit_record",
+    "findings",
+    "limit_cycle_section",
+    "limit_cycles_switched_off",
+    "model_descriptions",
+    "aicc_winners",
+    "expected_cost",
+    "clean",
+]
 
 
 _ROWS = {"B.1": 37, "B.2": 30, "B.3": 36, "B.4": 63, "B.5": 89, "permalloy": 73, "deltamax": 119}
@@ -68,15 +86,39 @@ def _data_summary(block, lsq0) -> dict:
     used = lsq0.residuals.groupby(["source_impedance_ohm", "frequency_hz"]).size()
     per_f = []
     for (rs, f), g in frame.groupby(["source_impedance_ohm", "frequency_hz"]):
-        per_f.append({"table": ", ".join(sorted(g["table"].astype(str).unique())), "source_impedance_ohm": rs,
-                      "frequency_hz": f, "rows_printed": len(g), "rows_used": int(used.get((rs, f), 0)),
-                      "rows_flagged": int((g["flag"] != "ok").sum()), "rows_excluded": int(g["exclude_default"].sum()),
-                      "input_min_v": g["input_v"].min(), "input_max_v": g["input_v"].max()})
-    cols = ["table", "source_impedance_ohm", "frequency_hz", "row_in_block", "input_v", "df_reported",
-            "phase_lead_deg", "flag", "exclude_default", "reasons"]
+        per_f.append(
+            {
+                "table": ", ".join(sorted(g["table"].astype(str).unique())),
+                "source_impedance_ohm": rs,
+                "frequency_hz": f,
+                "rows_printed": len(g),
+                "rows_used": int(used.get((rs, f), 0)),
+                "rows_flagged": int((g["flag"] != "ok").sum()),
+                "rows_excluded": int(g["exclude_default"].sum()),
+                "input_min_v": g["input_v"].min(),
+                "input_max_v": g["input_v"].max(),
+            }
+        )
+    cols = [
+        "table",
+        "source_impedance_ohm",
+        "frequency_hz",
+        "row_in_block",
+        "input_v",
+        "df_reported",
+        "phase_lead_deg",
+        "flag",
+        "exclude_default",
+        "reasons",
+    ]
     flagged = frame[frame["flag"] != "ok"][[c for c in cols if c in frame]]
-    return {"rows_printed": len(frame), "rows_used": len(lsq0.residuals), "per_frequency": per_f,
-            "flagged_rows": flagged.to_dict(orient="records"), "audit_findings": audit.findings(frame)}
+    return {
+        "rows_printed": len(frame),
+        "rows_used": len(lsq0.residuals),
+        "per_frequency": per_f,
+        "flagged_rows": flagged.to_dict(orient="records"),
+        "audit_findings": audit.findings(frame),
+    }
 
 
 def _excluded_rows(name: str) -> pd.DataFrame:
@@ -90,33 +132,83 @@ def audit_record() -> dict:
     frame = _audited("appendix_b")
     tables = []
     for t, g in frame.groupby("table"):
-        tables.append({"table": t, "core": g["core"].iloc[0], "source_impedance_ohm": g["source_impedance_ohm"].iloc[0],
-                       "rows": len(g), "flagged": int((g["flag"] != "ok").sum()),
-                       "excluded_by_default": int(g["exclude_default"].sum())})
+        tables.append(
+            {
+                "table": t,
+                "core": g["core"].iloc[0],
+                "source_impedance_ohm": g["source_impedance_ohm"].iloc[0],
+                "rows": len(g),
+                "flagged": int((g["flag"] != "ok").sum()),
+                "excluded_by_default": int(g["exclude_default"].sum()),
+            }
+        )
     factors = audit.block_factors(frame)
-    return clean({"tables": tables, "block_factors": factors.to_dict(orient="records"),
-                  "findings": audit.findings(frame)})
+    return clean(
+        {
+            "tables": tables,
+            "block_factors": factors.to_dict(orient="records"),
+            "findings": audit.findings(frame),
+        }
+    )
 
 
 # ------------------------------------------------------------------ fits
 _INFO_KEYS = ("seed", "n_screen", "n_starts", "best_start", "n_agree", "nfev", "success")
-_DIAG_KEYS = ("n_steps", "n_walkers", "burn", "thin", "n_draws", "steps_over_tau", "acceptance_mean",
-              "acceptance_min", "converged", "pareto_k_max", "n_pareto_k_bad", "looic", "looic_se", "waic",
-              "waic_se", "p_loo", "tau", "rhat", "ess_bulk", "sigma_magnitude_interval", "sigma_phase_deg_interval")
+_DIAG_KEYS = (
+    "n_steps",
+    "n_walkers",
+    "burn",
+    "thin",
+    "n_draws",
+    "steps_over_tau",
+    "acceptance_mean",
+    "acceptance_min",
+    "converged",
+    "pareto_k_max",
+    "n_pareto_k_bad",
+    "looic",
+    "looic_se",
+    "waic",
+    "waic_se",
+    "p_loo",
+    "tau",
+    "rhat",
+    "ess_bulk",
+    "sigma_magnitude_interval",
+    "sigma_phase_deg_interval",
+)
 
 
 def _residual_columns(r) -> dict:
-    cols = ["table", "source_impedance_ohm", "frequency_hz", "input_v", "df_measured", "phase_lead_measured_deg",
-            "df_predicted", "phase_lead_predicted_deg", "magnitude_residual", "phase_residual_deg", "complex_residual"]
+    cols = [
+        "table",
+        "source_impedance_ohm",
+        "frequency_hz",
+        "input_v",
+        "df_measured",
+        "phase_lead_measured_deg",
+        "df_predicted",
+        "phase_lead_predicted_deg",
+        "magnitude_residual",
+        "phase_residual_deg",
+        "complex_residual",
+    ]
     res = r.residuals
     return {c: res[c].tolist() for c in cols if c in res}
 
 
 def fit_record(r) -> dict:
-    rec = {"model": r.model, "chain": r.chain, "method": r.method, "label": r.label,
-           "parameters": r.parameter_table().to_dict(orient="records"), "metrics": dict(r.metrics),
-           "warnings": list(r.warnings), "info": {k: r.info[k] for k in _INFO_KEYS if k in r.info},
-           "rows": _residual_columns(r)}
+    rec = {
+        "model": r.model,
+        "chain": r.chain,
+        "method": r.method,
+        "label": r.label,
+        "parameters": r.parameter_table().to_dict(orient="records"),
+        "metrics": dict(r.metrics),
+        "warnings": list(r.warnings),
+        "info": {k: r.info[k] for k in _INFO_KEYS if k in r.info},
+        "rows": _residual_columns(r),
+    }
     if r.method == "mcmc":
         d = r.diagnostics
         rec["diagnostics"] = {k: d[k] for k in _DIAG_KEYS if k in d}
@@ -141,19 +233,34 @@ def _where_models_fail(lsq_ranked, n=5) -> dict:
     order = np.argsort(-best, kind="stable")[:n]
     rows = []
     for i in order:
-        rows.append({"table": res0["table"].iloc[i] if "table" in res0 else "", "source_impedance_ohm":
-                     res0["source_impedance_ohm"].iloc[i], "frequency_hz": res0["frequency_hz"].iloc[i],
-                     "input_v": res0["input_v"].iloc[i], "df_measured": res0["df_measured"].iloc[i],
-                     "phase_lead_measured_deg": res0["phase_lead_measured_deg"].iloc[i],
-                     "smallest_complex_residual": best[i], "closest_model": lsq_ranked[which[i]].model,
-                     "largest_complex_residual": float(np.nanmax(stack[i]))})
+        rows.append(
+            {
+                "table": res0["table"].iloc[i] if "table" in res0 else "",
+                "source_impedance_ohm": res0["source_impedance_ohm"].iloc[i],
+                "frequency_hz": res0["frequency_hz"].iloc[i],
+                "input_v": res0["input_v"].iloc[i],
+                "df_measured": res0["df_measured"].iloc[i],
+                "phase_lead_measured_deg": res0["phase_lead_measured_deg"].iloc[i],
+                "smallest_complex_residual": best[i],
+                "closest_model": lsq_ranked[which[i]].model,
+                "largest_complex_residual": float(np.nanmax(stack[i])),
+            }
+        )
     blocks = []
     for (rs, f), idx in res0.groupby(["source_impedance_ohm", "frequency_hz"]).groups.items():
         rms = np.sqrt(np.nanmean(stack[np.asarray(idx)] ** 2, axis=0))
         k = int(np.nanargmin(rms))
-        blocks.append({"source_impedance_ohm": rs, "frequency_hz": f, "n": len(idx), "best_model": lsq_ranked[k].model,
-                       "best_rms_complex": float(rms[k]), "worst_model": lsq_ranked[int(np.nanargmax(rms))].model,
-                       "worst_rms_complex": float(np.nanmax(rms))})
+        blocks.append(
+            {
+                "source_impedance_ohm": rs,
+                "frequency_hz": f,
+                "n": len(idx),
+                "best_model": lsq_ranked[k].model,
+                "best_rms_complex": float(rms[k]),
+                "worst_model": lsq_ranked[int(np.nanargmax(rms))].model,
+                "worst_rms_complex": float(np.nanmax(rms)),
+            }
+        )
     blocks.sort(key=lambda b: -b["best_rms_complex"])
     return {"rows": rows, "frequency_blocks": blocks}
 
@@ -162,16 +269,22 @@ def block_record(block, lsq_ranked, mcmc_by_model, cv_by_model, figures) -> dict
     """Everything the report shows about one block (JSON-ready)."""
     mcmc_ranked = [mcmc_by_model[r.model] for r in lsq_ranked if r.model in mcmc_by_model]
     d = lsq_ranked[0].problem.data
-    rec = {"key": block.key, "title": block.title, "core": block.core, "data": block.data,
-           "tables": d.groups, "source_impedance_ohm": sorted(set(d.source_impedance.tolist())),
-           "data_summary": _data_summary(block, lsq_ranked[0]),
-           "ranking_lsq": _ranking(lsq_ranked, cv_by_model),
-           "ranking_mcmc": _ranking(mcmc_ranked, rank_by="looic") if mcmc_ranked else [],
-           "fits_lsq": {r.model: fit_record(r) for r in lsq_ranked},
-           "fits_mcmc": {r.model: fit_record(r) for r in mcmc_ranked},
-           "cv": {m: {k: v for k, v in c.items()} for m, c in cv_by_model.items()},
-           "where_models_fail": _where_models_fail(lsq_ranked),
-           "figures": figures}
+    rec = {
+        "key": block.key,
+        "title": block.title,
+        "core": block.core,
+        "data": block.data,
+        "tables": d.groups,
+        "source_impedance_ohm": sorted(set(d.source_impedance.tolist())),
+        "data_summary": _data_summary(block, lsq_ranked[0]),
+        "ranking_lsq": _ranking(lsq_ranked, cv_by_model),
+        "ranking_mcmc": _ranking(mcmc_ranked, rank_by="looic") if mcmc_ranked else [],
+        "fits_lsq": {r.model: fit_record(r) for r in lsq_ranked},
+        "fits_mcmc": {r.model: fit_record(r) for r in mcmc_ranked},
+        "cv": {m: {k: v for k, v in c.items()} for m, c in cv_by_model.items()},
+        "where_models_fail": _where_models_fail(lsq_ranked),
+        "figures": figures,
+    }
     rec["order_lsq"] = [row["model"] for row in rec["ranking_lsq"]]
     rec["order_mcmc"] = [row["model"] for row in rec["ranking_mcmc"]]
     return clean(rec)
@@ -180,17 +293,36 @@ def block_record(block, lsq_ranked, mcmc_by_model, cv_by_model, figures) -> dict
 def cross_record(directions, cross: dict, figures: dict) -> list[dict]:
     out = []
     for core, train, test, train_key, test_key in directions:
-        rows = [row for (c, tr, te, _), recs in cross.items() if (c, tr, te) == (core, train, test) for row in recs]
+        rows = [
+            row
+            for (c, tr, te, _), recs in cross.items()
+            if (c, tr, te) == (core, train, test)
+            for row in recs
+        ]
         rows.sort(key=lambda r: (r["predict_rms_complex"], r["model"]))
-        out.append({"core": core, "train_ohm": train, "test_ohm": test, "train_block": train_key,
-                    "test_block": test_key, "rows": rows, "figure": figures.get(("cross", core, train, test))})
+        out.append(
+            {
+                "core": core,
+                "train_ohm": train,
+                "test_ohm": test,
+                "train_block": train_key,
+                "test_block": test_key,
+                "rows": rows,
+                "figure": figures.get(("cross", core, train, test)),
+            }
+        )
     return clean(out)
 
 
 # ------------------------------------------------------------------ figures (run in workers)
 def block_payload(block, lsq_ranked, mcmc_ranked, settings) -> dict:
-    return {"block": block, "lsq": lsq_ranked, "mcmc": mcmc_ranked, "plot_top": settings.plot_top,
-            "excluded": _excluded_rows(block.data)}
+    return {
+        "block": block,
+        "lsq": lsq_ranked,
+        "mcmc": mcmc_ranked,
+        "plot_top": settings.plot_top,
+        "excluded": _excluded_rows(block.data),
+    }
 
 
 def _save(fig, figdir: Path, name: str) -> str:
@@ -199,7 +331,9 @@ def _save(fig, figdir: Path, name: str) -> str:
     fig.savefig(buf, format="png", dpi=100)
     buf.seek(0)
     with Image.open(buf) as img:
-        img.convert("RGB").quantize(256, method=Image.Quantize.FASTOCTREE).save(figdir / name, optimize=True)
+        img.convert("RGB").quantize(256, method=Image.Quantize.FASTOCTREE).save(
+            figdir / name, optimize=True
+        )
     return f"figures/{name}"
 
 
@@ -207,18 +341,34 @@ def make_figures(kind: str, payload, figdir: Path):
     """Draw and save one group of figures; returns relative paths."""
     if kind == "thesis":
         paths = save_thesis_graphs(figdir / "thesis")
-        return [{"graph": n, "path": f"figures/thesis/{p.name}", "title": _thesis_title(THESIS_GRAPHS[n])}
-                for n, p in zip(THESIS_GRAPHS, paths)]
+        return [
+            {
+                "graph": n,
+                "path": f"figures/thesis/{p.name}",
+                "title": _thesis_title(THESIS_GRAPHS[n]),
+            }
+            for n, p in zip(THESIS_GRAPHS, paths)
+        ]
     if kind == "cross":
         core, train, test, train_key, test_key = payload["direction"]
-        fig = plot_cross_impedance(payload["train"], resolve_data(test_key), calibration_gains=payload["gains"])
+        fig = plot_cross_impedance(
+            payload["train"], resolve_data(test_key), calibration_gains=payload["gains"]
+        )
         return _save(fig, figdir, f"cross_{core}_{train:g}_to_{test:g}.png")
     b, lsq, mcmc = payload["block"], payload["lsq"], payload["mcmc"]
     slug = _slug(b.key)
     best_post = mcmc[0] if mcmc and mcmc[0].model == lsq[0].model else None
-    out = {"fit": _save(plot_fit(lsq, band=best_post or False, excluded=payload["excluded"]), figdir, f"{slug}_fit.png"),
-           "loci": _save(plot_critical_loci(lsq, top=2), figdir, f"{slug}_loci.png"),
-           "residuals": _save(plot_residuals(lsq, top=payload["plot_top"]), figdir, f"{slug}_residuals.png")}
+    out = {
+        "fit": _save(
+            plot_fit(lsq, band=best_post or False, excluded=payload["excluded"]),
+            figdir,
+            f"{slug}_fit.png",
+        ),
+        "loci": _save(plot_critical_loci(lsq, top=2), figdir, f"{slug}_loci.png"),
+        "residuals": _save(
+            plot_residuals(lsq, top=payload["plot_top"]), figdir, f"{slug}_residuals.png"
+        ),
+    }
     if best_post is not None:
         out["corner"] = _save(plot_corner(best_post, truths=lsq[0]), figdir, f"{slug}_corner.png")
     return out
@@ -231,7 +381,10 @@ def _thesis_title(fn) -> str:
 
 # ------------------------------------------------------------------ limit cycles
 def limit_cycles_switched_off() -> dict:
-    return {"available": False, "reason": "The limit-cycle comparison was switched off in these settings."}
+    return {
+        "available": False,
+        "reason": "The limit-cycle comparison was switched off in these settings.",
+    }
 
 
 def limit_cycle_section(seed, models, n_starts, figdir) -> dict:
@@ -244,9 +397,19 @@ def limit_cycle_section(seed, models, n_starts, figdir) -> dict:
     try:
         df = thesis_limit_cycle_comparison(seed=seed, models=models, n_starts=n_starts)
     except Exception as exc:  # the section reports the failure; the rest of the report stands
-        return {"available": True, "error": f"{type(exc).__name__}: {exc}", "models_offered": models}
-    rec = {"available": True, "models_offered": models, "rows": clean(df.to_dict(orient="records")),
-           "columns": list(df.columns), "attrs": clean(dict(df.attrs)), "figure": None}
+        return {
+            "available": True,
+            "error": f"{type(exc).__name__}: {exc}",
+            "models_offered": models,
+        }
+    rec = {
+        "available": True,
+        "models_offered": models,
+        "rows": clean(df.to_dict(orient="records")),
+        "columns": list(df.columns),
+        "attrs": clean(dict(df.attrs)),
+        "figure": None,
+    }
     try:
         rec["figure"] = _save(plot_thesis_comparison(df), Path(figdir), "limit_cycles.png")
     except Exception as exc:  # a figure that fails leaves its numbers in the report
@@ -269,9 +432,15 @@ def _block_finding(rec) -> str | None:
     if len(rank) > 1:
         second = rank[1]
         d_aicc = (second["aicc"] or 0.0) - (best["aicc"] or 0.0)
-        text += (f", {_pct(best['rms_complex'], second['rms_complex']):.0f}% below the runner-up "
-                 f"`{second['model']}` at {second['rms_complex']:.4f}; "
-                 + (f"AICc lower by {d_aicc:.1f}" if d_aicc >= 0 else f"but AICc higher by {-d_aicc:.1f}"))
+        text += (
+            f", {_pct(best['rms_complex'], second['rms_complex']):.0f}% below the runner-up "
+            f"`{second['model']}` at {second['rms_complex']:.4f}; "
+            + (
+                f"AICc lower by {d_aicc:.1f}"
+                if d_aicc >= 0
+                else f"but AICc higher by {-d_aicc:.1f}"
+            )
+        )
     text += ")."
     aicc_best = min(rank, key=lambda r: r["aicc"] if r["aicc"] is not None else math.inf)
     if aicc_best["model"] != best["model"]:
@@ -280,15 +449,20 @@ def _block_finding(rec) -> str | None:
         text += f" It cannot be told apart (AICc within 2) from {best['indistinguishable_from']}."
     if rec["ranking_mcmc"]:
         m = rec["ranking_mcmc"][0]["model"]
-        text += (f" MCMC (LOO-IC) agrees." if m == best["model"] else
-                 f" MCMC's LOO-IC prefers `{m}` of the {len(rec['ranking_mcmc'])} models sampled.")
+        text += (
+            " MCMC (LOO-IC) agrees."
+            if m == best["model"]
+            else f" MCMC's LOO-IC prefers `{m}` of the {len(rec['ranking_mcmc'])} models sampled."
+        )
     fail = rec["where_models_fail"]
     if fail["frequency_blocks"] and fail["rows"]:
         fb, w = fail["frequency_blocks"][0], fail["rows"][0]
-        text += (f" Hardest: {fb['frequency_hz']:g} c/s at {fb['source_impedance_ohm']:g} ohm (best model there "
-                 f"`{fb['best_model']}`, RMS {fb['best_rms_complex']:.3f}); every model misses {w['table']} "
-                 f"{w['frequency_hz']:g} c/s, {w['input_v']:g} V (|DF| {w['df_measured']:.3g}, lead "
-                 f"{w['phase_lead_measured_deg']:.3g} deg) by at least {w['smallest_complex_residual']:.3f}.")
+        text += (
+            f" Hardest: {fb['frequency_hz']:g} c/s at {fb['source_impedance_ohm']:g} ohm (best model there "
+            f"`{fb['best_model']}`, RMS {fb['best_rms_complex']:.3f}); every model misses {w['table']} "
+            f"{w['frequency_hz']:g} c/s, {w['input_v']:g} V (|DF| {w['df_measured']:.3g}, lead "
+            f"{w['phase_lead_measured_deg']:.3g} deg) by at least {w['smallest_complex_residual']:.3f}."
+        )
     return text
 
 
@@ -301,17 +475,28 @@ def _failure_pattern(blocks) -> str | None:
         worst += rec["where_models_fail"]["rows"]
         per_table = max(per_table, len(rec["where_models_fail"]["rows"]))
         rows = next(iter(rec["fits_lsq"].values()))["rows"]
-        every += [{"input_v": a, "lead": p} for a, p in zip(rows["input_v"], rows["phase_lead_measured_deg"])]
+        every += [
+            {"input_v": a, "lead": p}
+            for a, p in zip(rows["input_v"], rows["phase_lead_measured_deg"])
+        ]
     if not worst:
         return None
     wa = float(np.median([w["input_v"] for w in worst]))
     aa = float(np.median([e["input_v"] for e in every]))
-    wl = float(np.nanmedian([np.nan if w["phase_lead_measured_deg"] is None else w["phase_lead_measured_deg"]
-                             for w in worst]))
+    wl = float(
+        np.nanmedian(
+            [
+                np.nan if w["phase_lead_measured_deg"] is None else w["phase_lead_measured_deg"]
+                for w in worst
+            ]
+        )
+    )
     al = float(np.nanmedian([np.nan if e["lead"] is None else e["lead"] for e in every]))
-    text = (f"Where all models fail: the {len(worst)} rows that every model misses most ({per_table}"
-            f" per table) have a median input of {wa:.3g} V (all rows: {aa:.3g} V) and a median phase lead of "
-            f"{wl:.3g} deg (all rows: {al:.3g} deg)")
+    text = (
+        f"Where all models fail: the {len(worst)} rows that every model misses most ({per_table}"
+        f" per table) have a median input of {wa:.3g} V (all rows: {aa:.3g} V) and a median phase lead of "
+        f"{wl:.3g} deg (all rows: {al:.3g} deg)"
+    )
     if wa < 0.5 * aa:
         text += " -- they sit at the small-signal end of the tables"
         text += ", where the measured lead is large" if wl > 1.5 * al else ""
@@ -325,10 +510,16 @@ def _mcmc_finding(blocks) -> str | None:
     n_conv = sum(bool(d.get("converged")) for d in diags)
     ratio = [d["steps_over_tau"] for d in diags]
     rhat = [d["rhat_max"] for d in diags]
-    text = (f"MCMC: {n_conv} of {len(diags)} chains meet the convergence rule (50 autocorrelation times and "
-            f"R-hat < 1.05); steps/tau {min(ratio):.0f}-{max(ratio):.0f}, max R-hat {min(rhat):.2f}-{max(rhat):.2f}")
-    return text + (". The chains are short to keep the run short: read the posterior bands, corner plots and "
-                   "LOO-ICs as rough." if n_conv < len(diags) else ".")
+    text = (
+        f"MCMC: {n_conv} of {len(diags)} chains meet the convergence rule (50 autocorrelation times and "
+        f"R-hat < 1.05); steps/tau {min(ratio):.0f}-{max(ratio):.0f}, max R-hat {min(rhat):.2f}-{max(rhat):.2f}"
+    )
+    return text + (
+        ". The chains are short to keep the run short: read the posterior bands, corner plots and "
+        "LOO-ICs as rough."
+        if n_conv < len(diags)
+        else "."
+    )
 
 
 def findings(results: dict) -> list[str]:
@@ -340,41 +531,60 @@ def findings(results: dict) -> list[str]:
         if rec["order_lsq"]:
             wins.setdefault(rec["order_lsq"][0], []).append(rec["key"])
     if wins:
-        out.append("Best model per block (least squares, RMS complex residual): " +
-                   "; ".join(f"`{m}` on {', '.join(keys)}" for m, keys in wins.items()) + ".")
+        out.append(
+            "Best model per block (least squares, RMS complex residual): "
+            + "; ".join(f"`{m}` on {', '.join(keys)}" for m, keys in wins.items())
+            + "."
+        )
     out += [t for t in (_block_finding(rec) for rec in blocks.values()) if t]
     out += [t for t in (_failure_pattern(blocks), _mcmc_finding(blocks)) if t]
     for d in results.get("cross_impedance", []):
         if d["rows"]:
             r = d["rows"][0]
             own = blocks.get(d["test_block"], {}).get("ranking_lsq")
-            own_text = f"; a fit to {d['test_block']} itself reaches {own[0]['rms_complex']:.3f}" if own else ""
-            out.append(f"Cross-impedance, {d['core']}: fitted at {d['train_ohm']:g} ohm ({d['train_block']}), "
-                       f"`{r['model']}` predicts the {d['test_ohm']:g} ohm data ({d['test_block']}) best with RMS "
-                       f"complex residual {r['predict_rms_complex']:.3f} (training residual "
-                       f"{r['train_rms_complex']:.3f}{own_text}).")
+            own_text = (
+                f"; a fit to {d['test_block']} itself reaches {own[0]['rms_complex']:.3f}"
+                if own
+                else ""
+            )
+            out.append(
+                f"Cross-impedance, {d['core']}: fitted at {d['train_ohm']:g} ohm ({d['train_block']}), "
+                f"`{r['model']}` predicts the {d['test_ohm']:g} ohm data ({d['test_block']}) best with RMS "
+                f"complex residual {r['predict_rms_complex']:.3f} (training residual "
+                f"{r['train_rms_complex']:.3f}{own_text})."
+            )
     for core, keys in (("permalloy", ("B.1", "B.3")), ("deltamax", ("B.2", "B.5"))):
         joint = blocks.get(f"{core}-joint")
         sep = [blocks[k] for k in keys if k in blocks]
         if joint and joint["ranking_lsq"] and sep:
             j = joint["ranking_lsq"][0]
             parts = ", ".join(f"{s['key']} {s['ranking_lsq'][0]['rms_complex']:.3f}" for s in sep)
-            out.append(f"One parameter set for both impedances ({joint['key']}): best `{j['model']}` with RMS "
-                       f"{j['rms_complex']:.3f}, against the separate fits' best ({parts}).")
+            out.append(
+                f"One parameter set for both impedances ({joint['key']}): best `{j['model']}` with RMS "
+                f"{j['rms_complex']:.3f}, against the separate fits' best ({parts})."
+            )
     audit = results.get("audit", {})
     if audit.get("tables"):
         n_flag = sum(t["flagged"] for t in audit["tables"])
         n_excl = sum(t["excluded_by_default"] for t in audit["tables"])
         n_rows = sum(t["rows"] for t in audit["tables"])
-        out.append(f"The audit of the printed tables flags {n_flag} of {n_rows} rows and excludes {n_excl} by default "
-                   "(see the audit section for every row and reason).")
-        out += [f for f in audit.get("findings", []) if "footnote factor" in f and "followed by all" not in f]
+        out.append(
+            f"The audit of the printed tables flags {n_flag} of {n_rows} rows and excludes {n_excl} by default "
+            "(see the audit section for every row and reason)."
+        )
+        out += [
+            f
+            for f in audit.get("findings", [])
+            if "footnote factor" in f and "followed by all" not in f
+        ]
     lc = results.get("limit_cycles", {})
     if lc.get("rows"):
         df = pd.DataFrame(lc["rows"])
         if {"amplitude_ratio", "omega_ratio"} <= set(df) and df["amplitude_ratio"].notna().any():
-            out.append(f"Limit cycles (Tables 5.1, 5.2): predicted over measured amplitude has median "
-                       f"{df['amplitude_ratio'].median():.2f} (range {df['amplitude_ratio'].min():.2f}-"
-                       f"{df['amplitude_ratio'].max():.2f}) and predicted over measured frequency median "
-                       f"{df['omega_ratio'].median():.2f} over {int(df['amplitude_ratio'].notna().sum())} rows.")
+            out.append(
+                f"Limit cycles (Tables 5.1, 5.2): predicted over measured amplitude has median "
+                f"{df['amplitude_ratio'].median():.2f} (range {df['amplitude_ratio'].min():.2f}-"
+                f"{df['amplitude_ratio'].max():.2f}) and predicted over measured frequency median "
+                f"{df['omega_ratio'].median():.2f} over {int(df['amplitude_ratio'].notna().sum())} rows."
+            )
     return out

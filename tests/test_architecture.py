@@ -1,0 +1,68 @@
+"""The package's architecture, enforced: layers, no hidden imports, a public API that always works.
+
+The layer order lives in pyproject.toml (``[tool.importlinter]``): cli > report > plots >
+thesis > loop > inference > chains > models > describing | data > params | _json > errors.
+"""
+from __future__ import annotations
+
+import ast
+import importlib
+import pkgutil
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import fitdf
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "fitdf"
+
+
+def test_every_import_points_down():
+    """import-linter's layers contract over the whole import graph (function bodies included)."""
+    exe = shutil.which("lint-imports") or str(Path(sys.executable).with_name("lint-imports"))
+    run = subprocess.run([exe, "--no-cache"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-2000:]
+    assert "1 kept, 0 broken" in run.stdout
+
+
+def test_no_imports_hidden_inside_functions():
+    """Imports sit at the top of the module, where a reader (and the import graph) sees them."""
+    hidden = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for func in ast.walk(tree):
+            if isinstance(func, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                hidden += [f"{path.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}"
+                           for node in ast.walk(func) if isinstance(node, (ast.Import, ast.ImportFrom))]
+    assert not hidden, "\n".join(hidden)
+
+
+def test_no_self_inspection():
+    """The package never probes itself (signatures, optional own modules) at run time."""
+    offenders = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        text = path.read_text(encoding="utf-8")
+        for needle in ("inspect.signature", "import inspect", "except ImportError", "ModuleNotFoundError"):
+            if needle in text and not (path.name == "datasets.py" and needle == "ModuleNotFoundError"):
+                offenders.append(f"{path.relative_to(ROOT)}: {needle}")
+    assert not offenders, offenders
+
+
+def test_public_api_works_whatever_was_imported_first():
+    """Importing every submodule first must not shadow the public names (``fitdf.compare`` was a module)."""
+    for info in pkgutil.walk_packages(fitdf.__path__, "fitdf."):
+        importlib.import_module(info.name)
+    for name in ("fit", "compare", "cross_impedance", "limit_cycles", "get_model", "get_chain"):
+        assert callable(getattr(fitdf, name)), name
+    assert callable(fitdf.datasets.load) and callable(fitdf.audit.audit)
+    table = fitdf.compare("B.1", models=["constant_width"], cross_validation=False, n_starts=1)
+    assert list(table["model"]) == ["constant_width"] and table["rms_complex"].iloc[0] < 0.2
+
+
+@pytest.mark.parametrize("name", fitdf.__all__)
+def test_every_public_name_resolves(name):
+    assert getattr(fitdf, name) is not None
