@@ -19,11 +19,24 @@ __all__ = [
     "ParamSpec",
     "Parametrized",
     "split_theta",
+    "QUANTITIES",
     "PER_TABLE",
     "table_parameter",
     "parameter_base",
     "calibration_gain",
 ]
+
+#: Winding-unit quantities as ``(p, q)``: value = material value x (N A_e)^p x (l_e / N)^q,
+#: i.e. the powers of flux linkage per induction and of current per field they carry.
+QUANTITIES = {
+    "inductance": (1, -1),
+    "current": (0, 1),
+    "flux_linkage": (1, 0),
+    "inductance_per_current": (1, -2),
+    "per_current_squared": (0, -2),
+    "current_per_hz": (0, 1),
+    "current_per_hz2": (0, 1),
+}
 
 #: Chain parameters a joint fit gives one copy per table, named ``gain[B.1]``: the
 #: tables' calibration factors differ (Tables B.1-B.5 footnotes).
@@ -52,6 +65,11 @@ class ParamSpec:
     log : bool
         True for positive scale parameters spanning decades: optimisers and samplers
         work with ``log10`` of the value.
+    quantity : str
+        The physical quantity in winding units, a key of :data:`QUANTITIES` (``inductance``,
+        ``current``, ``flux_linkage``, ``inductance_per_current``, ...) or ``""``: with a
+        core's geometry it maps to a material quantity (permeability, field, induction),
+        whose physical limits then set the bounds.
     """
 
     name: str
@@ -61,6 +79,7 @@ class ParamSpec:
     description: str = ""
     equation: str = ""
     log: bool = False
+    quantity: str = ""
 
     def __post_init__(self):
         lo, hi = self.bounds
@@ -70,6 +89,8 @@ class ParamSpec:
             raise ValueError(
                 f"parameter {self.name!r}: default {self.default} outside bounds {self.bounds}"
             )
+        if self.quantity and self.quantity not in QUANTITIES:
+            raise ValueError(f"parameter {self.name!r}: unknown quantity {self.quantity!r}")
         if self.log and lo <= 0:
             raise ValueError(
                 f"parameter {self.name!r}: log-scaled parameters need a positive lower bound"

@@ -45,6 +45,9 @@ class MeasurementChain(Parametrized):
     name: ClassVar[str] = ""
     title: ClassVar[str] = ""
     params: ClassVar[tuple[ParamSpec, ...]] = ()
+    #: True when the law's input is the winding current (A) and its output the flux
+    #: linkage (V s), so a core's geometry turns its parameters into material constants.
+    winding_units: ClassVar[bool] = True
 
     @classmethod
     def operating_point(

@@ -21,6 +21,7 @@ class DirectChain(MeasurementChain):
     """
 
     name = "direct"
+    winding_units = False  # the law's input is in volts over input_scale
     title = "Core DF read directly (input scale only)"
     params = (
         ParamSpec(

@@ -43,6 +43,7 @@ import numpy as np
 
 from fitdf.data.datasets import load
 from fitdf.errors import OptionError
+from fitdf.params import QUANTITIES
 
 __all__ = [
     "winding_resistance_estimate",
@@ -280,6 +281,23 @@ class CoreGeometry:
         """Inductance (H) of the winding on a core of relative permeability ``mu_r``."""
         return np.asarray(mu_r, dtype=float) * self.inductance_per_permeability
 
+    # --- physical parameter boxes -------------------------------------------------------
+    def winding_scale(self, quantity: str) -> float:
+        """Winding-unit value per SI material value of ``quantity`` (:data:`fitdf.params.QUANTITIES`)."""
+        p, q = QUANTITIES[quantity]
+        return (self.turns * self.a_e) ** p * (self.l_e / self.turns) ** q
+
+    def winding_box(self, quantity: str):
+        """``(low, typical, high)`` in winding units from :data:`MATERIAL_LIMITS`, or None.
+
+        None for quantities without material limits (their declared bounds stand).
+        """
+        if quantity not in MATERIAL_LIMITS:
+            return None
+        _, lo, typical, hi, si_per_unit = MATERIAL_LIMITS[quantity]
+        scale = self.winding_scale(quantity) * si_per_unit
+        return lo * scale, typical * scale, hi * scale
+
     def to_dict(self) -> dict:
         """Plain-float summary (SI), with the scale factors."""
         return {
@@ -292,6 +310,20 @@ class CoreGeometry:
             "field_a_per_m_per_ampere": float(self.field_per_ampere),
             "inductance_h_per_mu_r": float(self.inductance_per_permeability),
         }
+
+
+#: Physical limits of soft-magnetic materials, per winding quantity: (material quantity, low,
+#: typical, high, SI per unit). They bound a fit in material terms instead of arbitrary
+#: winding-unit boxes: relative permeability 30 to 3e6 (gapped ferrite to the best
+#: Supermalloy), field 1e-3 to 1e3 A/m (1.3e-5 to 13 Oe: coercive forces and loop widths of
+#: soft alloys), induction 0.01 to 2.5 T (above any saturation induction), and a relative
+#: Rayleigh constant 0.1 to 1e9 m/A.
+MATERIAL_LIMITS = {
+    "inductance": ("relative permeability", 30.0, 1.0e4, 3.0e6, MU_0),
+    "current": ("field, A/m", 1.0e-3, 2.0, 1.0e3, 1.0),
+    "flux_linkage": ("induction, T", 0.01, 0.7, 2.5, 1.0),
+    "inductance_per_current": ("relative Rayleigh constant, m/A", 0.1, 1.0e4, 1.0e9, MU_0),
+}
 
 
 def core_geometry(core: str, *, stacking_factor=STACKING_FACTOR) -> CoreGeometry:

@@ -48,6 +48,8 @@ class FitData:
     group: np.ndarray  # table label per row, for per-table calibration gains
     rows: pd.DataFrame = field(repr=False)
     label: str = ""
+    #: The core the rows were measured on (an Appendix A name) when they all share one.
+    core: str | None = None
 
     @property
     def n(self) -> int:
@@ -88,6 +90,7 @@ class FitData:
             group=group.to_numpy(str),
             rows=frame,
             label=label,
+            core=_single_core(frame),
         )
 
     def subset(self, mask) -> FitData:
@@ -100,4 +103,13 @@ class FitData:
             self.group[mask],
             self.rows[mask].reset_index(drop=True),
             self.label,
+            self.core,
         )
+
+
+def _single_core(frame: pd.DataFrame) -> str | None:
+    """The value of the ``core`` column when every row has the same one, else None."""
+    if "core" not in frame:
+        return None
+    cores = frame["core"].dropna().astype(str).str.lower().unique()
+    return str(cores[0]) if len(cores) == 1 else None

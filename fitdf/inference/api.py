@@ -7,13 +7,18 @@ from pathlib import Path
 import pandas as pd
 
 from fitdf.data import audit, datasets
+from fitdf.data.cores import CoreGeometry, core_geometry
 from fitdf.data.fitdata import FitData, NoiseModel
 from fitdf.errors import DataError, OptionError
 from fitdf.inference.lsq import fit_lsq
+from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.problem import FitProblem
 
-__all__ = ["fit", "resolve_data", "METHODS"]
+__all__ = ["fit", "resolve_data", "resolve_geometry", "METHODS", "DEFAULT_CHAIN"]
+
+#: The chain of every fit unless another is asked for: the exact voltage-driven circuit.
+DEFAULT_CHAIN = "winding"
 
 METHODS = ("lsq", "mcmc")
 
@@ -60,7 +65,7 @@ def resolve_data(
 def fit(
     data,
     model,
-    chain: str = "winding",
+    chain: str = DEFAULT_CHAIN,
     method: str = "lsq",
     seed: int = 0,
     policy: str = "default",
@@ -72,6 +77,7 @@ def fit(
     max_steps: int | None = 5000,
     n_walkers: int | None = None,
     progress: bool = False,
+    geometry="auto",
 ):
     """Fit one model seen through one measurement chain.
 
@@ -81,7 +87,9 @@ def fit(
         A bundled dataset ("B.3"), a core ("permalloy"), a CSV in the Appendix B schema.
     model : str
         A name from :func:`fitdf.models.model_names`.
-    chain : {"winding", "direct"}
+    chain : {"voltage", "winding", "direct"}
+        ``voltage`` (default) is the exact circuit; ``winding`` its sinusoidal-current
+        approximation; ``direct`` reads the law's DF without a circuit.
     method : {"lsq", "mcmc"}
         "mcmc" runs least squares first and starts the walkers there.
     seed : int
@@ -89,6 +97,11 @@ def fit(
     n_steps, max_steps : int
         MCMC runs at least ``n_steps`` and extends up to ``max_steps`` until the chain is
         50 autocorrelation times long.
+    geometry : "auto", CoreGeometry or None
+        The core's turns and dimensions: material bounds, the ``r_winding`` prior and the
+        material constants of the result (:class:`~fitdf.inference.problem.FitProblem`).
+        "auto" takes the Appendix A geometry when the rows name a thesis core; None fits
+        in winding units with the laws' declared bounds.
 
     Returns
     -------
@@ -102,16 +115,39 @@ def fit(
     """
     if method not in METHODS:
         raise OptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    problem = FitProblem(resolve_data(data, policy, source_impedance), model, chain, noise, fixed)
+    rows = resolve_data(data, policy, source_impedance)
+    problem = FitProblem(rows, model, chain, noise, fixed, resolve_geometry(geometry, rows))
     result = fit_lsq(problem, seed=seed, n_starts=n_starts)
     if method == "lsq":
-        return result
-    return fit_mcmc(
-        problem,
-        result,
-        seed=seed,
-        n_steps=n_steps,
-        max_steps=max_steps,
-        n_walkers=n_walkers,
-        progress=progress,
+        return with_material(result)
+    return with_material(
+        fit_mcmc(
+            problem,
+            result,
+            seed=seed,
+            n_steps=n_steps,
+            max_steps=max_steps,
+            n_walkers=n_walkers,
+            progress=progress,
+        )
+    )
+
+
+def resolve_geometry(geometry, rows: FitData):
+    """The core geometry a fit uses: ``"auto"`` -> Appendix A's for a thesis core, else as given."""
+    if isinstance(geometry, str):
+        if geometry != "auto":
+            raise OptionError(f"geometry must be 'auto', None or a CoreGeometry, got {geometry!r}")
+        if rows.core is None:
+            return None
+        try:
+            return core_geometry(rows.core)
+        except (
+            OptionError
+        ):  # a core Appendix A does not list: no geometry unless the user gives one
+            return None
+    if geometry is None or isinstance(geometry, CoreGeometry):
+        return geometry
+    raise OptionError(
+        f"geometry must be 'auto', None or a CoreGeometry, got {type(geometry).__name__}"
     )

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import qmc
 
+from fitdf.data.cores import MATERIAL_LIMITS
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, residual_table
@@ -29,7 +30,7 @@ def _screen(problem: FitProblem, rng, n_screen: int, n_starts: int):
     sob = qmc.Sobol(problem.ndim, scramble=True, seed=rng).random(n_screen)
     points = np.vstack([problem.start_internal(), lo + sob * (hi - lo)])
     with np.errstate(all="ignore"):
-        cost = np.sum(problem.weighted_residuals(points) ** 2, axis=-1)
+        cost = np.sum(problem.objective_residuals(points) ** 2, axis=-1)
     cost = np.where(np.isfinite(cost), cost, np.inf)
     return points[np.argsort(cost, kind="stable")[:n_starts]]
 
@@ -42,7 +43,7 @@ def _polish(problem: FitProblem, start, max_nfev: int):
 
     def residual(p):
         x = np.array([p[f"p{i}"].value for i in range(problem.ndim)])
-        r = problem.weighted_residuals(x)
+        r = problem.objective_residuals(x)
         return np.where(np.isfinite(r), r, 1e6)
 
     with warnings.catch_warnings():
@@ -81,17 +82,50 @@ def _uncertainties(problem: FitProblem, x, covar):
 
 
 def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
+    """What a parameter on a bound means: the data push it past the box, so the box, not the
+    data, sets its value (and the other parameters are conditional on it)."""
     out = []
     for i, s in enumerate(problem.specs):
         lo, hi = s.internal_bounds
         tol = rel * (hi - lo)
-        if x[i] - lo < tol:
+        side = "lower" if x[i] - lo < tol else "upper" if hi - x[i] < tol else None
+        if side is None:
+            continue
+        bound = s.bounds[0] if side == "lower" else s.bounds[1]
+        why = _box_reason(problem, s, side)
+        out.append(
+            f"parameter {s.name} sits on its {side} bound {bound:.4g} {s.unit}{why}: the data "
+            f"want a {'smaller' if side == 'lower' else 'larger'} value and do not determine it"
+        )
+    return out
+
+
+def _box_reason(problem: FitProblem, spec, side) -> str:
+    if problem.geometry is None or spec.quantity not in MATERIAL_LIMITS:
+        return ""
+    what, lo, _, hi, _ = MATERIAL_LIMITS[spec.quantity]
+    return f" (the physical limit {what} = {lo if side == 'lower' else hi:g})"
+
+
+def identifiability_warnings(
+    problem: FitProblem, intervals: dict, decades: float = 1.0
+) -> list[str]:
+    """Parameters whose 68 % interval spans more than ``decades`` (log) or its whole box: the
+    data do not determine them (a prior, where there is one, does)."""
+    out = []
+    for s in problem.specs:
+        iv = intervals.get(s.name, {})
+        lo, hi = iv.get("p16", np.nan), iv.get("p84", np.nan)
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            continue
+        wide = (s.log and lo > 0 and np.log10(hi / lo) > decades) or (
+            not s.log and hi - lo >= 0.5 * (s.bounds[1] - s.bounds[0])
+        )
+        if wide:
+            held = " (held by its prior)" if s.name in problem.priors else ""
             out.append(
-                f"parameter {s.name} sits on its lower bound {s.bounds[0]:g} {s.unit}".rstrip()
-            )
-        elif hi - x[i] < tol:
-            out.append(
-                f"parameter {s.name} sits on its upper bound {s.bounds[1]:g} {s.unit}".rstrip()
+                f"the data do not determine {s.name}: 68% interval {lo:.3g}..{hi:.3g} "
+                f"{s.unit}{held}".replace("  ", " ")
             )
     return out
 
@@ -110,7 +144,7 @@ def fit_lsq(
     rng = np.random.default_rng(seed)
     starts = _screen(problem, rng, n_screen, n_starts)
     polished = [_polish(problem, s, max_nfev) for s in starts]
-    costs = np.array([np.sum(problem.weighted_residuals(x) ** 2) for _, x in polished])
+    costs = np.array([np.sum(problem.objective_residuals(x) ** 2) for _, x in polished])
     best = int(np.argmin(costs))
     out, x = polished[best]
     n_agree = int(np.sum(costs - costs[best] <= 1.0))
@@ -126,7 +160,7 @@ def fit_lsq(
         **residual_metrics(predicted, problem.data.measured),
         **information_criteria(wres, problem.ndim),
     }
-    warns = bound_warnings(problem, x)
+    warns = bound_warnings(problem, x) + identifiability_warnings(problem, intervals)
     if covar is None:
         warns.append("covariance matrix not available (singular Jacobian): uncertainties are NaN")
     if not out.success:

@@ -50,16 +50,19 @@ dimensionless ratio and has no material constants.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from fitdf.data.cores import CoreGeometry
+from fitdf._json import clean
+from fitdf.data.cores import CoreGeometry, appendix_a_ranges
 from fitdf.errors import ModelError, OptionError
 
 __all__ = [
     "MaterialConstants",
     "material_constants",
+    "material_record",
+    "with_material",
     "loop_landmarks",
     "appendix_a_check",
     "inductance_from_permeability",
@@ -493,3 +496,44 @@ def flux_linkage_from_induction(b_gauss, geometry: CoreGeometry):
 def induction_from_flux_linkage(flux_linkage, geometry: CoreGeometry):
     """Induction (gauss) of a flux linkage (V s)."""
     return _float(geometry.induction_gauss(flux_linkage))
+
+
+def material_record(result) -> dict | None:
+    """Material constants of a fit and, for an Appendix A core, their check (JSON-ready).
+
+    None when the fit has no core geometry or its chain is not in winding units (the
+    check is then absent, not invented). ``current_max`` is the largest peak winding
+    current the fitted chain predicts at the data points; a frequency-dependent law is
+    evaluated at the lowest data frequency.
+    """
+    problem = result.problem
+    geometry = problem.geometry
+    if geometry is None or not problem.chain.winding_units:
+        return None
+    data = problem.data
+    currents = problem.core_currents(result.internal)
+    constants = material_constants(
+        problem.model,
+        result.values,
+        geometry,
+        current_max=float(np.nanmax(currents)),
+        frequency=float(np.min(data.frequency)),
+        winding_resistance=result.values.get("r_winding"),
+        winding_resistance_estimate=geometry.r_winding_estimate,
+    )
+    try:
+        ranges = appendix_a_ranges(data.core) if data.core else None
+    except OptionError:  # a user's core: no catalogue ranges to compare with
+        ranges = None
+    return clean(
+        {
+            "core": data.core,
+            "constants": constants.to_dict(),
+            "appendix_a_check": None if ranges is None else appendix_a_check(constants, ranges),
+        }
+    )
+
+
+def with_material(result):
+    """``result`` with its :func:`material_record` attached (results are immutable)."""
+    return replace(result, material=material_record(result))

@@ -66,7 +66,9 @@ class LogPosterior:
         out = np.full(X.shape[0], -np.inf)
         if inside.any():
             with np.errstate(all="ignore"):
-                ll = np.sum(self.pointwise(X[inside]), axis=-1)
+                ll = np.sum(self.pointwise(X[inside]), axis=-1) + self.problem.log_prior(
+                    X[inside][:, : self.problem.ndim]
+                )
             out[inside] = np.where(np.isfinite(ll), ll, -np.inf)
         return out
 

@@ -23,12 +23,26 @@ from dataclasses import replace
 import numpy as np
 
 from fitdf.chains import get_chain
+from fitdf.data.cores import CoreGeometry
 from fitdf.data.fitdata import FitData, NoiseModel
 from fitdf.errors import ModelError
 from fitdf.models import get_model
 from fitdf.params import PER_TABLE, ParamSpec, table_parameter
 
-__all__ = ["FitProblem"]
+__all__ = ["FitProblem", "physical_spec", "R_WINDING_PRIOR_SIGMA"]
+
+#: Width (natural log) of the log-normal prior of the winding resistance about its
+#: geometry estimate: the Appendix A estimate is good to about 30 %.
+R_WINDING_PRIOR_SIGMA = 0.3
+
+
+def physical_spec(spec: ParamSpec, geometry: CoreGeometry) -> ParamSpec:
+    """``spec`` with bounds and start from the material limits of its quantity (if it has any)."""
+    box = geometry.winding_box(spec.quantity) if spec.quantity else None
+    if box is None:
+        return spec
+    lo, typical, hi = box
+    return replace(spec, bounds=(lo, hi), default=min(max(typical, lo), hi))
 
 
 class FitProblem:
@@ -44,6 +58,13 @@ class FitProblem:
         the MCMC noise priors.
     fixed : dict, optional
         Parameter values held fixed (not fitted).
+    geometry : CoreGeometry, optional
+        The core's turns and dimensions. With it (and a chain in winding units) every
+        parameter that has a physical quantity is bounded by material limits
+        (:data:`fitdf.data.cores.MATERIAL_LIMITS`) instead of its declared box, and
+        ``r_winding`` gets a log-normal prior centred on the geometry's estimate
+        (:data:`R_WINDING_PRIOR_SIGMA`): data at one source impedance leave a current
+        scale that only the winding resistance fixes (:mod:`fitdf.data.cores`).
     """
 
     def __init__(
@@ -53,8 +74,10 @@ class FitProblem:
         chain="winding",
         noise: NoiseModel | None = None,
         fixed: dict | None = None,
+        geometry: CoreGeometry | None = None,
     ):
         self.data = data
+        self.geometry = geometry
         self.model = get_model(model)
         self.chain = get_chain(chain)
         self.noise = noise or NoiseModel()
@@ -74,7 +97,10 @@ class FitProblem:
                     self._gain_specs.append((s.name, g))
             else:
                 chain_specs.append(spec)
-        self.all_specs: list[ParamSpec] = list(self.model.params) + chain_specs
+        model_specs = list(self.model.params)
+        if geometry is not None and self.chain.winding_units:
+            model_specs = [physical_spec(s, geometry) for s in model_specs]
+        self.all_specs: list[ParamSpec] = model_specs + chain_specs
         unknown = set(self.fixed) - {s.name for s in self.all_specs}
         if unknown:
             raise ModelError(
@@ -85,6 +111,11 @@ class FitProblem:
         self.names = [s.name for s in self.specs]
         self._group_index = {g: data.group == g for g in groups}
         self.warm_current = None
+        #: name -> (centre, sigma) of Gaussian priors in internal (log10) coordinates
+        self.priors: dict[str, tuple[float, float]] = {}
+        r0 = None if geometry is None else geometry.r_winding_estimate
+        if r0 and "r_winding" in self.names:
+            self.priors["r_winding"] = (float(np.log10(r0)), R_WINDING_PRIOR_SIGMA / np.log(10.0))
 
     # ---------------------------------------------------------------- coordinates
     @property
@@ -171,13 +202,17 @@ class FitProblem:
         Fixed once, so every later evaluation is independent of the evaluation history.
         Only convergence speed changes: the solver still converges to its tolerance.
         """
+        self.warm_current = self.core_currents(internal)
+
+    def core_currents(self, internal):
+        """Peak winding current at each data row for one internal vector (the chain's operating point)."""
         values = self.full_natural(np.asarray(internal, float))
         m_theta = np.array([float(values[s.name]) for s in self.model.params])
         c_theta = np.array(
             [1.0 if s.name in PER_TABLE else float(values[s.name]) for s in self.chain.params]
         )
         d = self.data
-        self.warm_current = np.asarray(
+        return np.asarray(
             self.chain.core_current(
                 self.model, d.amplitude, d.frequency, d.source_impedance, m_theta, c_theta
             )
@@ -210,6 +245,25 @@ class FitProblem:
             np.abs(self.data.measured) * np.deg2rad(sp), self.noise.floor * np.ones_like(sm)
         )
         return sm, tang
+
+    def prior_residuals(self, internal):
+        """``(x - centre) / sigma`` of each prior, shape ``(..., n_priors)`` (may be empty)."""
+        internal = np.asarray(internal, float)
+        cols = [
+            (internal[..., self.names.index(name)] - centre) / sigma
+            for name, (centre, sigma) in self.priors.items()
+        ]
+        return np.stack(cols, axis=-1) if cols else np.zeros(internal.shape[:-1] + (0,))
+
+    def objective_residuals(self, internal):
+        """Data residuals and prior residuals: what least squares minimises (a penalised chi-square)."""
+        return np.concatenate(
+            [self.weighted_residuals(internal), self.prior_residuals(internal)], axis=-1
+        )
+
+    def log_prior(self, internal):
+        """Log of the Gaussian priors (up to a constant), for MCMC."""
+        return -0.5 * np.sum(self.prior_residuals(internal) ** 2, axis=-1)
 
     def weighted_residuals(self, internal):
         """Residual vector ``[radial/sigma_r, tangential/sigma_t]`` of length ``2n``."""

@@ -89,7 +89,12 @@ def cross_validate(result, seed=0, n_starts=3) -> dict:
     for rs, f in keys:
         held = (d.source_impedance == rs) & (d.frequency == f)
         train = FitProblem(
-            d.subset(~held), problem.model, problem.chain, problem.noise, problem.fixed
+            d.subset(~held),
+            problem.model,
+            problem.chain,
+            problem.noise,
+            problem.fixed,
+            problem.geometry,
         )
         if train.data.n <= train.ndim:
             continue
@@ -275,7 +280,9 @@ def cross_impedance(
     for model in list(models or model_names()):
         fitted = fit(train, model, chain=chain, seed=seed, n_starts=n_starts, fixed=fixed0)
         fixed = {k: v for k, v in fitted.values.items() if parameter_base(k) not in PER_TABLE}
-        target = FitProblem(test, model, chain, fitted.problem.noise, fixed=fixed)
+        target = FitProblem(
+            test, model, chain, fitted.problem.noise, fixed, fitted.problem.geometry
+        )
         if target.ndim:
             calibrated = fit_lsq(target, seed=seed, n_starts=2)
             pred = target.predict(calibrated.internal)

@@ -79,6 +79,9 @@ class FitResult:
     info: dict
     problem: Any = field(repr=False, compare=False)
     internal: np.ndarray = field(repr=False, compare=False)
+    #: Material constants and the Appendix A check (:func:`fitdf.inference.material.material_record`),
+    #: None without a core geometry.
+    material: dict | None = field(default=None, kw_only=True, compare=False)
 
     @property
     def n_params(self) -> int:
@@ -182,8 +185,17 @@ class FitResult:
                 "warnings": list(self.warnings),
                 "info": self.info,
                 "rows_used": self.residuals.to_dict(orient="records"),
+                **self._material_fields(),
             }
         )
+
+    def _material_fields(self) -> dict:
+        if self.material is None:
+            return {}
+        out = {"material": self.material["constants"]}
+        if self.material.get("appendix_a_check") is not None:
+            out["appendix_a_check"] = self.material["appendix_a_check"]
+        return out
 
 
 @dataclass(frozen=True)

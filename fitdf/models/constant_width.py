@@ -36,6 +36,7 @@ K_SPEC = ParamSpec(
     description="slope of the loop's sides (unsaturated inductance)",
     equation="eqs 2.6, 2.8",
     log=True,
+    quantity="inductance",
 )
 #: Saturation level of the output, shared by the piecewise-linear laws.
 C_SPEC = ParamSpec(
@@ -46,6 +47,7 @@ C_SPEC = ParamSpec(
     description="saturation flux linkage (np.inf in calls: no saturation)",
     equation="eqs 2.6, 2.8 (C = (b2 - b) K)",
     log=True,
+    quantity="flux_linkage",
 )
 
 
@@ -73,6 +75,7 @@ class ConstantWidth(HysteresisModel):
             description="half-width of the loop (coercive current)",
             equation="Fig 2.3; eq 2.11",
             log=True,
+            quantity="current",
         ),
         C_SPEC,
     )

@@ -161,6 +161,7 @@ class CubicHc(HysteresisModel):
             description="cubic bending of the coercive-current law",
             equation="eq 4.8 (eq 4.10)",
             log=True,
+            quantity="per_current_squared",
         ),
         ParamSpec(
             "h0",
@@ -170,6 +171,7 @@ class CubicHc(HysteresisModel):
             description="end of the dead zone (loop without width below it)",
             equation="eq 4.11 (0.5)",
             log=True,
+            quantity="current",
         ),
         ParamSpec(
             "h1",
@@ -179,6 +181,7 @@ class CubicHc(HysteresisModel):
             description="start of the linear tail of the width law",
             equation="eq 4.11 (5)",
             log=True,
+            quantity="current",
         ),
         ParamSpec(
             "tail_slope",

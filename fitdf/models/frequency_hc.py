@@ -71,6 +71,7 @@ class FrequencyHc(HysteresisModel):
             unit="A/Hz",
             description="coercive current per hertz (a of eq 3.23)",
             equation="eq 3.23",
+            quantity="current_per_hz",
         ),
         ParamSpec(
             "hc_b",
@@ -80,6 +81,7 @@ class FrequencyHc(HysteresisModel):
             description="coercive current per hertz squared (b of eq 3.23; 0 in the "
             "dimensionally consistent law)",
             equation="eq 3.23",
+            quantity="current_per_hz2",
         ),
     )
 

@@ -236,7 +236,14 @@ class Rayleigh(HysteresisModel):
     closed_form = False
     params = (
         ParamSpec(
-            "mu0", 100.0, (1.0, 1.0e4), "H", "initial (small-signal) inductance", "eq 3.1", log=True
+            "mu0",
+            100.0,
+            (1.0, 1.0e4),
+            "H",
+            "initial (small-signal) inductance",
+            "eq 3.1",
+            log=True,
+            quantity="inductance",
         ),
         ParamSpec(
             "gamma",
@@ -246,6 +253,7 @@ class Rayleigh(HysteresisModel):
             "Rayleigh constant: rise of inductance with amplitude",
             "eqs 3.1, 3.7",
             log=True,
+            quantity="inductance_per_current",
         ),
         ParamSpec(
             "c_sat",
@@ -255,6 +263,7 @@ class Rayleigh(HysteresisModel):
             "saturation flux linkage of the Frohlich-Kennelly limiter",
             "sec III.1",
             log=True,
+            quantity="flux_linkage",
         ),
     )
 

@@ -43,6 +43,7 @@ from tqdm.auto import tqdm
 from fitdf import __version__
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit
+from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
 from fitdf.models import model_names
@@ -176,7 +177,9 @@ def _job_lsq(data, model, seed, n_starts):
 
 
 def _job_mcmc(lsq, seed, n_steps, n_walkers):
-    return fit_mcmc(lsq.problem, lsq, seed=seed, n_steps=n_steps, n_walkers=n_walkers)
+    return with_material(
+        fit_mcmc(lsq.problem, lsq, seed=seed, n_steps=n_steps, n_walkers=n_walkers)
+    )
 
 
 def _job_cv(lsq, seed, n_starts):
