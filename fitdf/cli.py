@@ -19,7 +19,9 @@ from fitdf import __version__
 from fitdf._json import clean
 from fitdf.chains import CHAINS, chain_names
 from fitdf.data import audit, datasets
+from fitdf.data.cores import parse_geometry
 from fitdf.errors import FitdfError, OptionError
+from fitdf.inference.api import DEFAULT_CHAIN
 from fitdf.inference.ranking import METHOD_CHOICES, RANK_COLUMNS, compare_fits
 from fitdf.loop.fitted import fitted_limit_cycles
 from fitdf.models import MODELS, model_names
@@ -180,6 +182,7 @@ def cmd_fit(args):
             policy=args.policy,
             n_steps=args.steps,
             max_steps=args.max_steps,
+            geometry=parse_geometry(args.geometry) if args.geometry else "auto",
         )
     finally:
         if progress is not None:
@@ -205,6 +208,7 @@ def cmd_fit(args):
     print(_ranking_text(table))
     print("\nBest model:")
     print(best.summary())
+    print(_material_text(best))
     for r in results:
         if r.method == "mcmc":
             d = r.diagnostics
@@ -214,6 +218,30 @@ def cmd_fit(args):
                 f"min ESS {min(d['ess_bulk'].values()):.0f}, acceptance {d['acceptance_mean']:.2f})"
             )
     return 0
+
+
+def _material_text(result) -> str:
+    """The best fit's material constants beside the Appendix A ranges (when there is a geometry)."""
+    if result.material is None:
+        return "  (no core geometry: material constants not computed; see --geometry)"
+    check = result.material.get("appendix_a_check")
+    if not check:
+        c = result.material["constants"]
+        return (
+            f"  material: mu_i {c['initial_permeability']:.4g}, mu_max {c['maximum_permeability']:.4g}, "
+            f"H_c {c['coercive_force_oe']:.3g} Oe, B_p {c['peak_flux_density_gauss']:.4g} G, "
+            f"B_r/B_p {c['squareness']:.3g} (no catalogue ranges for this core)"
+        )
+    lines = ["  material constants vs Appendix A:"]
+    for row in check:
+        high = "" if row["high"] is None else f"{row['high']:.4g}"
+        fitted = "n/a" if row["fitted"] is None else f"{row['fitted']:.4g}"
+        mark = "inside" if row["inside"] else "OUTSIDE"
+        lines.append(
+            f"    {row['quantity']:<24s} {fitted:>10s} {row['unit']:<13s} "
+            f"range {row['low']:.4g}..{high:<8s} {mark}"
+        )
+    return "\n".join(lines)
 
 
 def cmd_report(args):
@@ -357,9 +385,18 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument(
         "--chain",
         nargs="+",
-        default=["winding"],
+        default=[DEFAULT_CHAIN],
         choices=chain_names(),
-        help="measurement chain(s) (default: winding)",
+        help=f"measurement chain(s) (default: {DEFAULT_CHAIN}; winding is its sinusoidal-current "
+        "approximation)",
+    )
+    sp.add_argument(
+        "--geometry",
+        default=None,
+        metavar="SPEC",
+        help="the core's turns and dimensions for a user's CSV, e.g. "
+        '"turns=1250,od=63.5mm,id=50.8mm,height=12.7mm[,stacking=0.85][,r_winding=54]" or a file '
+        "of such lines (default: Appendix A for a thesis core, else none)",
     )
     sp.add_argument(
         "--source-impedance",
@@ -440,7 +477,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="ALPHA",
         help="run the plant as G(s/ALPHA), e.g. for a time-scaled analog computer (default 1)",
     )
-    sp.add_argument("--chain", default="winding", choices=chain_names())
+    sp.add_argument("--chain", default=DEFAULT_CHAIN, choices=chain_names())
     sp.add_argument("--seed", type=int, default=0)
     sp.add_argument(
         "--plot", default=None, metavar="FILE.png", help="write the Nyquist-plane figure"

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -412,3 +413,69 @@ def winding_resistance_estimate(core: str) -> float:
     turns = _value(rows, "primary_turns")
     turn_m = 2.0 * ((od - idia) / 2.0 + h + 4.0 * CASE_ALLOWANCE_IN) * INCH
     return float(np.round(turns * turn_m * AWG34_OHM_PER_M, 1))
+
+
+#: Length units a geometry text may use, in metres.
+_LENGTH_UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "in": INCH}
+_GEOMETRY_KEYS = ("turns", "od", "id", "height", "stacking", "r_winding")
+
+
+def _length(key: str, text: str) -> float:
+    for unit in sorted(_LENGTH_UNITS, key=len, reverse=True):
+        if text.endswith(unit):
+            try:
+                return float(text[: -len(unit)]) * _LENGTH_UNITS[unit]
+            except ValueError:
+                break
+    raise OptionError(
+        f"geometry: {key}={text!r} needs a number with a unit ({', '.join(_LENGTH_UNITS)}), e.g. 63.5mm"
+    )
+
+
+def parse_geometry(text: str, name: str = "user core") -> CoreGeometry:
+    """A user's core from ``"turns=1250,od=63.5mm,id=50.8mm,height=12.7mm[,stacking=0.85][,r_winding=54]"``.
+
+    ``text`` may also be the path of a small file holding the same ``key=value`` pairs
+    (commas or new lines between them; ``#`` starts a comment). Lengths need a unit (mm,
+    cm, m, in); ``r_winding`` (ohm) is optional and, when given, centres the winding
+    resistance prior. Errors are one-line :class:`OptionError` naming the key.
+    """
+    raw = str(text)
+    source = "geometry"
+    path = Path(raw)
+    if "=" not in raw and path.is_file():
+        source = str(path)
+        raw = "\n".join(line.split("#", 1)[0] for line in path.read_text().splitlines())
+    pairs = {}
+    for item in raw.replace("\n", ",").split(","):
+        if not item.strip():
+            continue
+        key, sep, value = (part.strip() for part in item.partition("="))
+        if not sep or key not in _GEOMETRY_KEYS:
+            raise OptionError(
+                f"{source}: cannot read {item.strip()!r}; expected key=value with keys "
+                f"{', '.join(_GEOMETRY_KEYS)}"
+            )
+        pairs[key] = value
+    missing = [k for k in ("turns", "od", "id", "height") if k not in pairs]
+    if missing:
+        raise OptionError(f"{source}: missing {', '.join(missing)} (e.g. turns=1250,od=63.5mm,...)")
+
+    def number(key):
+        try:
+            value = float(pairs[key])
+        except ValueError:
+            raise OptionError(f"{source}: {key}={pairs[key]!r} is not a number") from None
+        if not (math.isfinite(value) and value > 0):
+            raise OptionError(f"{source}: {key} must be positive, got {pairs[key]}")
+        return value
+
+    return CoreGeometry.from_dimensions(
+        number("turns"),
+        _length("od", pairs["od"]),
+        _length("id", pairs["id"]),
+        _length("height", pairs["height"]),
+        stacking_factor=number("stacking") if "stacking" in pairs else STACKING_FACTOR,
+        r_winding_estimate=number("r_winding") if "r_winding" in pairs else None,
+        name=name,
+    )

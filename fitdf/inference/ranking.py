@@ -6,21 +6,31 @@ Ranking
     :mod:`fitdf.inference.metrics`), PSIS-LOO and WAIC for MCMC fits, and a cross-validated RMS
     complex residual (leave one frequency out, fit the rest by least squares, predict
     it). Default order: RMS complex residual. Two models are called *indistinguishable*
-    when their AICc differ by less than 2 (least squares) or their LOO-IC difference is
-    smaller than twice its standard error (MCMC).
+    when their AICc differ by less than 2 (least squares) or their elpd_loo difference is
+    smaller than twice its standard error ``dse`` (MCMC: :func:`arviz.compare` on the pair;
+    identical pointwise elpd counts as a tie).
+
+    Least squares: ``delta_aicc`` is the AICc above the lowest, ``aicc_weight`` the Akaike
+    weight ``exp(-delta_aicc / 2)`` normalised over all rows.
+    MCMC rows, compared among themselves with :func:`arviz.compare` (PSIS-LOO, log scale,
+    rebuilt exactly from each fit's stored pointwise elpd): ``elpd_loo_diff`` and
+    ``elpd_loo_dse``, the elpd below the best MCMC row and its standard error, and
+    ``loo_weight``, the stacking weight. NaN on least-squares rows.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import arviz as az
 import numpy as np
 import pandas as pd
+import xarray as xr
 
 from fitdf.chains import get_chain
 from fitdf.data.cores import winding_resistance_estimate
 from fitdf.errors import OptionError
-from fitdf.inference.api import fit, resolve_data
+from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.metrics import residual_metrics
 from fitdf.inference.problem import FitProblem
@@ -63,7 +73,7 @@ def best_by_aicc(results):
 
 
 def fit_all(
-    data, models=None, chains=("winding",), methods=("lsq",), seed=0, progress=None, **kw
+    data, models=None, chains=(DEFAULT_CHAIN,), methods=("lsq",), seed=0, progress=None, **kw
 ) -> list:
     """Fit every model x chain x method on the same rows; returns the results in that order."""
     models = list(models or model_names())
@@ -155,6 +165,8 @@ def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None)
     weights = np.exp(-0.5 * table["delta_aicc"])
     table["aicc_weight"] = weights / weights.sum()
     table["indistinguishable_from"] = _ties(results, table)
+    for col, values in _loo_comparison(results).items():
+        table[col] = values
     if rank_by in ("looic", "waic") and table[rank_by].isna().all():
         raise OptionError(f"--rank-by {rank_by} needs MCMC fits (use --method mcmc or both)")
     table = table.sort_values([rank_by, "aicc"], kind="stable", na_position="last").reset_index(
@@ -164,8 +176,61 @@ def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None)
     return table
 
 
+def _elpd_data(result):
+    """An MCMC result's PSIS-LOO as :class:`arviz.ELPDData` (log scale), or None.
+
+    Rebuilt from ``diagnostics["pointwise_elpd_loo"]``: ``elpd_loo`` and ``se`` are the sum and
+    ``sqrt(n var)`` of the pointwise values, as :func:`arviz.loo` computes them; these, the
+    pointwise values, ``p_loo`` and ``warning`` are all :func:`arviz.compare` reads.
+    """
+    if result.method != "mcmc":
+        return None
+    loo_i = np.asarray(result.diagnostics.get("pointwise_elpd_loo", []), float)
+    if not loo_i.size:
+        return None
+    return az.ELPDData(
+        data=[
+            float(np.sum(loo_i)),
+            float(np.sqrt(loo_i.size * np.var(loo_i))),
+            float(result.diagnostics.get("p_loo", np.nan)),
+            bool(result.diagnostics.get("n_pareto_k_bad", 0)),
+            xr.DataArray(loo_i, dims=["observation"]),
+            "log",
+        ],
+        index=["elpd_loo", "se", "p_loo", "warning", "loo_i", "scale"],
+    )
+
+
+def _loo_comparison(results) -> dict:
+    """``elpd_loo_diff``, ``elpd_loo_dse`` and ``loo_weight`` (stacking) of :func:`arviz.compare`
+    over the MCMC rows with pointwise elpd on the same number of rows; NaN elsewhere."""
+    out = {
+        c: np.full(len(results), np.nan) for c in ("elpd_loo_diff", "elpd_loo_dse", "loo_weight")
+    }
+    elpd = {i: e for i, r in enumerate(results) if (e := _elpd_data(r)) is not None}
+    if not elpd or len({e["loo_i"].size for e in elpd.values()}) != 1:
+        return out
+    cmp = az.compare(elpd, ic="loo", method="stacking", scale="log")
+    for i in elpd:
+        out["elpd_loo_diff"][i] = cmp.loc[i, "elpd_diff"]
+        out["elpd_loo_dse"][i] = cmp.loc[i, "dse"]
+        out["loo_weight"][i] = cmp.loc[i, "weight"]
+    return out
+
+
+def _loo_tie(a, b) -> bool:
+    """Whether two MCMC fits' elpd_loo differ by less than twice the difference's standard error
+    (:func:`arviz.compare` on the pair); identical pointwise elpd is a tie."""
+    if a is None or b is None or a["loo_i"].size != b["loo_i"].size:
+        return False
+    row = az.compare({0: a, 1: b}, ic="loo", method="stacking", scale="log").iloc[1]
+    return bool(abs(row["elpd_diff"]) < 2 * row["dse"] or row["elpd_diff"] == 0)
+
+
 def _ties(results, table) -> list[str]:
     """For each row, the other models it cannot be told apart from."""
+    elpd = [_elpd_data(r) for r in results]
+    loo_ties = {}
     out = []
     for i, r in enumerate(results):
         ties = []
@@ -173,13 +238,11 @@ def _ties(results, table) -> list[str]:
             if i == j or r.method != s.method:
                 continue
             if r.method == "mcmc":
-                a = np.asarray(r.diagnostics.get("pointwise_elpd_loo", []))
-                b = np.asarray(s.diagnostics.get("pointwise_elpd_loo", []))
-                if a.size and a.size == b.size:
-                    diff = a - b
-                    se = np.sqrt(a.size * np.var(diff))
-                    if abs(diff.sum()) < 2 * se:
-                        ties.append(f"{s.model}/{s.chain}")
+                pair = (min(i, j), max(i, j))
+                if pair not in loo_ties:
+                    loo_ties[pair] = _loo_tie(elpd[i], elpd[j])
+                if loo_ties[pair]:
+                    ties.append(f"{s.model}/{s.chain}")
             elif abs(table.loc[i, "aicc"] - table.loc[j, "aicc"]) < 2:
                 ties.append(f"{s.model}/{s.chain}")
         out.append(", ".join(ties))
@@ -203,7 +266,7 @@ class Comparison:
 def compare_fits(
     data,
     models=None,
-    chains=("winding",),
+    chains=(DEFAULT_CHAIN,),
     method="lsq",
     seed=0,
     rank_by="rms_complex",
@@ -230,7 +293,7 @@ def compare_fits(
 def compare(
     data,
     models=None,
-    chains=("winding",),
+    chains=(DEFAULT_CHAIN,),
     method="lsq",
     seed=0,
     rank_by="rms_complex",
@@ -251,7 +314,7 @@ def compare(
 def cross_impedance(
     core,
     models=None,
-    chain="winding",
+    chain=DEFAULT_CHAIN,
     train_ohm=0.0,
     test_ohm=600.0,
     seed=0,

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from fitdf._json import clean
 from fitdf.errors import OptionError
-from fitdf.inference.api import fit, resolve_data
+from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data
 from fitdf.inference.ranking import best_by_aicc
 from fitdf.loop.harmonic import LimitCycleResponse, limit_cycles
 from fitdf.loop.plant import as_loop_plant
@@ -61,7 +61,7 @@ def fitted_limit_cycles(
     gains,
     source_impedance,
     model=None,
-    chain="winding",
+    chain=DEFAULT_CHAIN,
     seed=0,
     *,
     amplitude_range=None,
