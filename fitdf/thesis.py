@@ -20,9 +20,10 @@ from fitdf.data import datasets
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit
 from fitdf.inference.ranking import best_by_aicc
+from fitdf.loop.elements import CoreElement
 from fitdf.loop.harmonic import limit_cycles
 from fitdf.loop.plant import as_loop_plant
-from fitdf.loop.simulate import CoreElement, simulate_loop
+from fitdf.loop.simulate import simulate_loop
 from fitdf.models import model_names
 
 __all__ = [

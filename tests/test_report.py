@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import fitdf.report.outline as outline
 import fitdf.report.render as render
 import fitdf.report.sections as sections
 from fitdf.report.build import BLOCKS, ReportSettings, generate_report
@@ -195,7 +196,7 @@ def test_markdown_sections(tiny_report, tiny_results):
 
 
 def test_limit_cycle_section_switched_off_or_failing(monkeypatch, tmp_path):
-    blocks = render._limit_blocks({"limit_cycles": sections.limit_cycles_switched_off()})
+    blocks = outline._limit_blocks({"limit_cycles": sections.limit_cycles_switched_off()})
     assert "switched off" in render._md(blocks)[2]
 
     def boom(**kwargs):

@@ -8,10 +8,8 @@ import pytest
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit
 from fitdf.loop.check import time_domain_check
+from fitdf.loop.elements import CoreElement, RelayHysteresis, Saturation
 from fitdf.loop.simulate import (
-    CoreElement,
-    RelayHysteresis,
-    Saturation,
     measure_oscillation,
     simulate_loop,
     simulated_describing_function,

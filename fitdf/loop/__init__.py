@@ -1,2 +1,4 @@
-"""Loop analysis: plants (``plant``), harmonic balance with Loeb stability (``harmonic``),
-the closed loop simulated in time (``simulate``) and the two compared (``check``)."""
+"""Loop analysis: plants (``plant``), harmonic balance (``harmonic``, with its inputs in
+``nonlinearity``, results in ``response`` and the critical-gain search in ``critical``),
+the loop's elements in time (``elements``), the closed loop simulated (``simulate``), the
+two compared (``check``), and the limit cycles of a fitted core (``fitted``)."""

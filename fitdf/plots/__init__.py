@@ -2,16 +2,13 @@
 
 :mod:`fitdf.plots.thesis` redraws the computed graphs of thesis Chapter IV
 (Graphs 4.1-4.7) from fitdf's models; :mod:`fitdf.plots.fits` draws fitted results
-(DF against amplitude, critical loci, residuals, posteriors, cross-impedance).
+(DF against amplitude, residuals, cross-impedance), :mod:`fitdf.plots.loci` their
+critical loci and :mod:`fitdf.plots.posterior` a posterior's corner plot.
 """
 
-from fitdf.plots.fits import (
-    plot_corner,
-    plot_critical_loci,
-    plot_cross_impedance,
-    plot_fit,
-    plot_residuals,
-)
+from fitdf.plots.fits import plot_cross_impedance, plot_fit, plot_residuals
+from fitdf.plots.loci import plot_critical_loci
+from fitdf.plots.posterior import plot_corner
 from fitdf.plots.thesis import (
     THESIS_GRAPHS,
     graph_4_1,

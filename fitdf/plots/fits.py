@@ -1,4 +1,7 @@
-"""Figures of fitted describing functions: fits, critical loci, residuals, posteriors.
+"""Figures of fitted describing functions against amplitude: fits, residuals, cross-impedance.
+
+The critical loci are drawn by :mod:`fitdf.plots.loci`, posteriors by
+:mod:`fitdf.plots.posterior`; the panel helpers all share are in ``_panels``.
 
 Every function takes fit results (:class:`~fitdf.inference.results.FitResult` or
 :class:`~fitdf.inference.results.PosteriorResult`) and returns a
@@ -25,106 +28,30 @@ Examples
 
 from __future__ import annotations
 
-import corner
 import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from fitdf.plots._figure import new_figure
+from fitdf.plots._panels import (
+    _STYLES,
+    AMP_LABEL,
+    _amplitude_grid,
+    _as_list,
+    _blank,
+    _block,
+    _core_title,
+    _draw_measured,
+    _label,
+    _label_pair,
+    _legend,
+    _pair_axes,
+    _panels,
+    _rs_list,
+    _table_for,
+)
 
-__all__ = [
-    "plot_fit",
-    "plot_critical_loci",
-    "plot_residuals",
-    "plot_corner",
-    "plot_cross_impedance",
-]
-
-MAG_LABEL = "|DF| (V/V)"
-PHASE_LABEL = "phase lead (deg)"
-AMP_LABEL = "input amplitude (V)"
-_STYLES = ("-", "--", ":", "-.")
-
-
-# ------------------------------------------------------------------ helpers
-def _as_list(results):
-    if results is None:
-        raise ValueError("no results to plot")
-    out = list(results) if isinstance(results, (list, tuple)) else [results]
-    if not out:
-        raise ValueError("no results to plot")
-    return out
-
-
-def _label(result, results):
-    """Legend label: the model, plus the method when methods are mixed."""
-    methods = {r.method for r in results}
-    return result.model if len(methods) == 1 else f"{result.model} ({result.method})"
-
-
-def _core_title(data):
-    rows = data.rows
-    core = (
-        ", ".join(dict.fromkeys(rows["core"].astype(str))).capitalize()
-        if "core" in rows
-        else data.label
-    )
-    tables = "+".join(data.groups)
-    return core, tables
-
-
-def _rs_list(data, source_impedance):
-    if source_impedance is not None:
-        return [float(v) for v in np.atleast_1d(source_impedance)]
-    return sorted(set(data.source_impedance.tolist()))
-
-
-def _panels(data, frequencies, source_impedance):
-    """(impedances, frequencies) to draw; frequencies default to every measured one."""
-    rs = _rs_list(data, source_impedance)
-    keep = np.isin(data.source_impedance, rs)
-    freqs = (
-        sorted(set(data.frequency[keep].tolist()))
-        if frequencies is None
-        else [float(f) for f in np.atleast_1d(frequencies)]
-    )
-    if not rs or not freqs:
-        raise ValueError("nothing to plot: no source impedance or frequency selected")
-    return rs, freqs
-
-
-def _amplitude_grid(a_min, a_max, n):
-    """Fine grid that is smooth on a linear axis and resolves the smallest amplitudes."""
-    a_min = max(float(a_min), 1e-4)
-    a_max = max(float(a_max), a_min * 1.01)
-    return np.unique(
-        np.concatenate([np.geomspace(a_min, a_max, n // 2), np.linspace(a_min, a_max, n - n // 2)])
-    )
-
-
-def _block(data, rs, f):
-    m = (data.source_impedance == rs) & (data.frequency == f)
-    return m, (data.group[m][0] if m.any() else (data.groups[0] if data.groups else None))
-
-
-def _phase_ok(data, mask):
-    """Rows with a meaningful measured phase (a zero output has none)."""
-    ok = np.abs(data.measured[mask]) > 0
-    if "phase_trusted" in data.rows:
-        ok &= data.rows["phase_trusted"].to_numpy(bool)[mask]
-    return ok
-
-
-def _table_for(result, table):
-    return table if table in result.problem.data.groups else None
-
-
-def _draw_measured(ax_mag, ax_ph, data, mask, marker="o", label="measured"):
-    A = data.amplitude[mask]
-    D = data.measured[mask]
-    ok = _phase_ok(data, mask)
-    ax_mag.plot(A, np.abs(D), marker, color="k", ms=4, ls="none", label=label, zorder=5)
-    ax_ph.plot(A[ok], np.angle(D[ok], deg=True), marker, color="k", ms=4, ls="none", zorder=5)
+__all__ = ["plot_fit", "plot_residuals", "plot_cross_impedance"]
 
 
 def _draw_excluded(ax_mag, ax_ph, excluded, rs, f):
@@ -150,51 +77,6 @@ def _draw_band(ax_mag, ax_ph, post, a_range, f, rs, table, color):
     for lo, hi, alpha in ((0, 4, 0.15), (1, 3, 0.3)):
         ax_mag.fill_between(A, mag[lo], mag[hi], color=color, alpha=alpha, lw=0)
         ax_ph.fill_between(A, ph[lo], ph[hi], color=color, alpha=alpha, lw=0)
-
-
-def _pair_axes(fig, nrows_pairs, ncols):
-    axes = fig.subplots(2 * nrows_pairs, ncols, squeeze=False)
-    for p in range(nrows_pairs):
-        for j in range(ncols):
-            axes[2 * p + 1, j].sharex(axes[2 * p, j])
-            axes[2 * p, j].tick_params(labelbottom=False)
-    return axes
-
-
-def _label_pair(ax_mag, ax_ph, first_col, rs, many_rs, f):
-    suffix = f"\n@ {rs:g} ohm" if many_rs else ""
-    if first_col:
-        ax_mag.set_ylabel(MAG_LABEL + suffix)
-        ax_ph.set_ylabel(PHASE_LABEL + suffix)
-    ax_ph.set_xlabel(AMP_LABEL)
-    ax_mag.set_title(f"f = {f:g} c/s" + (f", {rs:g} ohm" if many_rs else ""), fontsize="medium")
-    for ax in (ax_mag, ax_ph):
-        ax.grid(True, lw=0.4, alpha=0.5)
-
-
-def _blank(ax_mag, ax_ph, rs, f):
-    for ax in (ax_mag, ax_ph):
-        ax.set_axis_off()
-    ax_mag.text(
-        0.5,
-        0.5,
-        f"no data at {f:g} c/s, {rs:g} ohm",
-        ha="center",
-        va="center",
-        transform=ax_mag.transAxes,
-        color="0.5",
-        fontsize="small",
-    )
-
-
-def _legend(fig, handles, ncol=None):
-    fig.legend(
-        handles=handles,
-        loc="outside lower center",
-        ncol=ncol or min(len(handles), 4),
-        fontsize="small",
-        frameon=False,
-    )
 
 
 # ------------------------------------------------------------------ public figures
@@ -290,116 +172,6 @@ def plot_fit(
     return fig
 
 
-def _loci_limits(points):
-    """Axis limits covering the measured loci of the larger DFs (small DFs run off far)."""
-    if not points:
-        return None
-    z = np.concatenate(points)
-    z = z[np.isfinite(z) & (np.abs(z) <= 1.0 / 0.15)]
-    if z.size == 0:
-        return None
-    x0, x1 = z.real.min(), z.real.max()
-    y0, y1 = min(z.imag.min(), 0.0), z.imag.max()
-    px, py = 0.08 * max(x1 - x0, 0.05), 0.08 * max(y1 - y0, 0.05)
-    return (x0 - px, x1 + px), (y0 - py, y1 + py)
-
-
-def plot_critical_loci(
-    results, frequencies=None, top=1, source_impedance=None, ax=None, n_grid=240, title=None
-):
-    """Critical loci ``-1/DF`` in the Nyquist plane per frequency (thesis Graphs 5.4-5.20).
-
-    Measured rows give points ``-1/DF`` (rows with zero output have none); the first
-    ``top`` results give curves ``-1/DF(A)`` over the measured amplitude range, with an
-    arrow in the direction of increasing amplitude. Colour = frequency, line style =
-    model. The measured DF leads, so the loci lie in the second quadrant. The axes
-    cover the measured points with ``|DF| >= 0.15``; smaller DFs lie further out.
-
-    Parameters
-    ----------
-    results : FitResult or list of them
-    frequencies : sequence of float, optional
-    top : int
-        How many of the results draw curves (default the first only).
-    source_impedance : float or sequence, optional
-        One axes per impedance (default all in the data).
-    ax : matplotlib.axes.Axes, optional
-        Draw into this axes (needs a single source impedance).
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    results = _as_list(results)
-    data = results[0].problem.data
-    rs_list, freqs = _panels(data, frequencies, source_impedance)
-    if ax is not None:
-        if len(rs_list) != 1:
-            raise ValueError("ax= needs a single source impedance; pass source_impedance=")
-        fig, axes = ax.figure, [ax]
-    else:
-        fig = new_figure((6.2 * len(rs_list) + 0.6, 5.6))
-        axes = list(fig.subplots(1, len(rs_list), squeeze=False)[0])
-    curves = results[: max(int(top), 0)]
-    for a, rs in zip(axes, rs_list):
-        points = []
-        for j, f in enumerate(freqs):
-            mask, table = _block(data, rs, f)
-            if not mask.any():
-                continue
-            D = data.measured[mask]
-            z = -1.0 / D[np.abs(D) > 0]
-            points.append(z)
-            a.plot(z.real, z.imag, "o", color=f"C{j}", ms=4, zorder=5)
-            A = _amplitude_grid(data.amplitude[mask].min(), data.amplitude[mask].max(), n_grid)
-            for i, r in enumerate(curves):
-                pred = r.predict(A, f, rs, table=_table_for(r, table))
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    L = np.where(np.abs(pred) > 1e-9, -1.0 / pred, np.nan)
-                a.plot(L.real, L.imag, color=f"C{j}", ls=_STYLES[i % 4], lw=1.3)
-                good = np.flatnonzero(np.isfinite(L) & (np.abs(L) <= 1.0 / 0.15))
-                if i == 0 and good.size > 4:
-                    k = good[good.size // 2]
-                    a.annotate(
-                        "",
-                        xy=(L.real[k + 1], L.imag[k + 1]),
-                        xytext=(L.real[k], L.imag[k]),
-                        arrowprops=dict(arrowstyle="-|>", color=f"C{j}", lw=1.0, mutation_scale=10),
-                    )
-        lim = _loci_limits(points)
-        if lim:
-            a.set_xlim(*lim[0])
-            a.set_ylim(*lim[1])
-        a.axhline(0.0, color="0.6", lw=0.6)
-        a.axvline(0.0, color="0.6", lw=0.6)
-        a.set_xlabel("Re(-1/DF)")
-        a.set_ylabel("Im(-1/DF)")
-        a.grid(True, lw=0.4, alpha=0.5)
-        a.set_title(f"source impedance {rs:g} ohm", fontsize="medium")
-    handles = [
-        Line2D([], [], color=f"C{j}", marker="o", ms=4, ls="none", label=f"{f:g} c/s measured")
-        for j, f in enumerate(freqs)
-    ]
-    handles += [
-        Line2D(
-            [],
-            [],
-            color="0.2",
-            ls=_STYLES[i % 4],
-            label=f"{_label(r, results)} fit (arrow: A grows)",
-        )
-        for i, r in enumerate(curves)
-    ]
-    axes[-1].legend(handles=handles, fontsize="x-small", loc="best")
-    core, tables = _core_title(data)
-    text = title or f"Critical loci -1/DF, {core} ({tables})"
-    if ax is None:
-        fig.suptitle(text)
-    else:
-        ax.set_title(text, fontsize="medium")
-    return fig
-
-
 def plot_residuals(results, top=3, title=None):
     """Magnitude and phase-lead residuals (fit minus measured) against amplitude.
 
@@ -473,81 +245,6 @@ def plot_residuals(results, top=3, title=None):
     _legend(fig, handles, ncol=min(len(handles), 8))
     core, tables = _core_title(results[0].problem.data)
     fig.suptitle(title or f"Residuals of the top {len(results)} models, {core} ({tables})")
-    return fig
-
-
-def _decade(x):
-    """Power of ten (multiple of 3) to divide a parameter by for readable ticks, 0 if none."""
-    m = float(np.nanmedian(np.abs(x))) if np.size(x) else 0.0
-    if m == 0.0 or not np.isfinite(m) or 1e-2 <= m < 1e4:
-        return 0
-    return int(3 * np.floor(np.log10(m) / 3))
-
-
-def plot_corner(posterior, max_draws=4000, truths=None, title=None):
-    """Corner plot of a PosteriorResult's parameters (the ``corner`` package).
-
-    Log-scaled parameters (see :class:`~fitdf.params.ParamSpec`) are shown as
-    ``log10``, the coordinate they were sampled in. ``truths`` (a FitResult, e.g. the
-    least-squares optimum the walkers started from, or a dict name -> value) is marked
-    with lines; ``None`` marks nothing.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        ``P x P`` axes for ``P`` sampled parameters.
-    """
-    if not hasattr(posterior, "flat_internal"):
-        raise TypeError("plot_corner needs a PosteriorResult (fit with method='mcmc')")
-    problem = posterior.problem
-    flat = posterior.flat_internal(max_draws=max_draws, seed=0)
-    if truths is not None:
-        values = (
-            truths.values if isinstance(getattr(truths, "values", None), dict) else dict(truths)
-        )
-    cols, labels, mark = [], [], []
-    for i, s in enumerate(problem.specs):
-        unit = s.unit if s.unit and s.unit != "1" else ""
-        x = flat[:, i] if s.log else s.from_internal(flat[:, i])
-        t = None if truths is None else (np.log10(values[s.name]) if s.log else values[s.name])
-        scale = 0 if s.log else _decade(x)
-        if scale:  # tiny or huge values: show mantissas, the power of ten goes into the label
-            x, t = x / 10.0**scale, None if t is None else t / 10.0**scale
-            unit = f"1e{scale} {unit}".strip()
-        cols.append(x)
-        mark.append(t)
-        labels.append(("log10 " if s.log else "") + s.name + (f" [{unit}]" if unit else ""))
-    samples = np.column_stack(cols)
-    P = samples.shape[1]
-    size = max(6.0, 1.55 * P + 1.0)
-    fig = new_figure((size, size), layout=None)
-    corner.corner(
-        samples,
-        fig=fig,
-        labels=labels,
-        quantiles=[0.16, 0.5, 0.84],
-        show_titles=True,
-        title_fmt=".3g",
-        title_kwargs={"fontsize": 8},
-        label_kwargs={"fontsize": 8},
-        truths=None if truths is None else mark,
-        max_n_ticks=3,
-        plot_datapoints=False,
-        fill_contours=True,
-        smooth=1.0,
-    )
-    for a in fig.axes:
-        a.tick_params(labelsize=7)
-    fig.subplots_adjust(top=1.0 - 0.9 / size)  # room for the title above the first histogram's
-    d = posterior.diagnostics
-    conv = "converged" if d.get("converged") else "NOT converged"
-    rhat = max(d.get("rhat", {"": np.nan}).values())
-    text = title or (
-        f"Posterior of {posterior.model} on {posterior.label}: {conv}\n"
-        f"(steps/tau {d.get('steps_over_tau', np.nan):.0f}, max R-hat {rhat:.3f}"
-        + ("; blue lines: least-squares optimum)" if truths is not None else ")")
-    )
-    fig.suptitle(text, fontsize="medium", y=1.0 - 0.12 / size)
     return fig
 
 

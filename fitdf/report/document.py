@@ -1,0 +1,66 @@
+"""The report's document model: blocks as plain tuples, and the formatting of a table cell.
+
+The blocks are headings, paragraphs, lists, tables, images and collapsible details;
+:mod:`fitdf.report.outline` builds the report from them and :mod:`fitdf.report.render`
+turns them into Markdown and HTML.
+"""
+
+from __future__ import annotations
+
+import re
+
+__all__ = ["fmt", "slug", "H", "P", "UL", "TABLE", "IMG", "DETAILS"]
+
+
+# ------------------------------------------------------------------ formatting
+def fmt(v, digits=4) -> str:
+    """A cell: numbers to ``digits`` significant digits, None as 'n/a', booleans yes/no."""
+    if v is None:
+        return "n/a"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if v != 0 and (abs(v) >= 1e6 or abs(v) < 1e-3):
+            return f"{v:.{digits - 1}e}"
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+def slug(text: str) -> str:
+    """GitHub's heading anchor: lower case, punctuation dropped, spaces to hyphens."""
+    text = re.sub(r"[^\w\- ]", "", text.strip().lower().replace("`", ""))
+    return text.replace(" ", "-")
+
+
+# ------------------------------------------------------------------ document model
+def H(level, text):
+    return ("h", level, text)
+
+
+def P(text):
+    return ("p", text)
+
+
+def UL(items):
+    return ("ul", list(items))
+
+
+def TABLE(header, rows):
+    return ("table", list(header), [[fmt(c) for c in r] for r in rows])
+
+
+def IMG(path, alt):
+    return ("img", path, alt)
+
+
+def DETAILS(summary, blocks):
+    return ("details", summary, list(blocks))
+
+
+def _records_table(records, cols):
+    if not records:
+        return P("(none)")
+    cols = [(k, label) for k, label in cols if any(r.get(k) not in (None, "") for r in records)]
+    return TABLE([label for _, label in cols], [[r.get(k) for k, _ in cols] for r in records])

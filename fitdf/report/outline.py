@@ -1,0 +1,264 @@
+"""What the report says, in order: :func:`build_document` and the report-wide sections.
+
+The settings, contents, findings and summary, then one section per block
+(:mod:`fitdf.report.block_outline`), the cross-impedance prediction, the limit
+cycles, the audit, the thesis's curves and the models -- as a list of document blocks
+(:mod:`fitdf.report.document`) that :mod:`fitdf.report.render` renders.
+"""
+
+from __future__ import annotations
+
+import json
+
+from fitdf.report.block_outline import _block_blocks
+from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, slug
+
+__all__ = ["build_document"]
+
+
+def _settings_text(res) -> list:
+    s, t = res["settings"], res["timing"]
+    mcmc = (
+        "MCMC (emcee, DE moves) for the best {top} least-squares models of each block: {w} walkers x {n} steps".format(
+            top="all" if s["mcmc_top"] is None else s["mcmc_top"], w=s["n_walkers"], n=s["n_steps"]
+        )
+        if "mcmc" in s["methods"] and s["mcmc_top"] != 0
+        else "no MCMC"
+    )
+    cv = (
+        f"leave-one-frequency-out cross-validation for the best {s['cv_top'] if s['cv_top'] is not None else 'all'} "
+        f"models ({s['cv_starts']} starts per fold)"
+        if s["cv_top"] != 0
+        else "no cross-validation"
+    )
+    return [
+        UL(
+            [
+                f"fitdf {res['fitdf_version']}, seed {res['seed']}"
+                + (" (**quick** configuration)" if res.get("quick") else ""),
+                f"models: {', '.join('`' + m + '`' for m in s['models'])}; measurement chain `winding`",
+                f"least squares with {s['n_starts']} starts for every model and block; {mcmc}; {cv}",
+                f"run time {t.get('total_s', 0):.0f} s with {t.get('workers', 1)} worker process(es) "
+                f"(least squares {t.get('least_squares_s', 0):.0f} s, MCMC/CV/cross-impedance/limit cycles "
+                f"{t.get('mcmc_cv_cross_limit_s', 0):.0f} s, figures {t.get('figures_s', 0):.0f} s)",
+                "regenerate with `fitdf report` (same seed, same numbers); every number is in `results.json`",
+            ]
+        )
+    ]
+
+
+def _summary_table(res):
+    rows = []
+    for rec in res["blocks"].values():
+        r = rec["ranking_lsq"]
+        if not r:
+            continue
+        m = rec["ranking_mcmc"][0]["model"] if rec["ranking_mcmc"] else None
+        rows.append(
+            [
+                f"[{rec['key']}](#{slug(rec['title'])})",
+                rec["title"],
+                r[0]["model"],
+                r[0]["rms_complex"],
+                r[1]["model"] if len(r) > 1 else None,
+                r[1]["rms_complex"] if len(r) > 1 else None,
+                m,
+            ]
+        )
+    return TABLE(
+        [
+            "block",
+            "data",
+            "best (lsq)",
+            "RMS complex",
+            "runner-up",
+            "RMS complex",
+            "best by LOO-IC (MCMC)",
+        ],
+        rows,
+    )
+
+
+def _cross_blocks(res):
+    out = [
+        H(2, "Cross-impedance prediction"),
+        P(
+            "Each core fitted at one source impedance predicts its data at the other: the core's parameters and "
+            "the winding resistance come from the training fit; only the target table's calibration gain is "
+            "refitted (the tables use different DF factors, see the audit)."
+        ),
+    ]
+    if not res["cross_impedance"]:
+        return out + [P("Not computed in this configuration.")]
+    for d in res["cross_impedance"]:
+        out.append(
+            H(
+                3,
+                f"{d['core'].capitalize()}: fitted at {d['train_ohm']:g} ohm ({d['train_block']}), "
+                f"predicting {d['test_ohm']:g} ohm ({d['test_block']})",
+            )
+        )
+        out.append(
+            _records_table(
+                d["rows"],
+                [
+                    ("model", "model"),
+                    ("train_rms_complex", "training RMS complex"),
+                    ("predict_rms_complex", "prediction RMS complex"),
+                    ("predict_rms_magnitude", "prediction RMS |DF|"),
+                    ("predict_rms_phase_deg", "prediction RMS phase (deg)"),
+                    ("calibration_gain", "refitted gain"),
+                    ("n_test", "rows predicted"),
+                ],
+            )
+        )
+        if d.get("figure"):
+            out.append(
+                IMG(
+                    d["figure"],
+                    f"cross-impedance {d['core']} {d['train_ohm']:g} to {d['test_ohm']:g} ohm",
+                )
+            )
+    return out
+
+
+def _limit_blocks(res):
+    lc = res["limit_cycles"]
+    out = [H(2, "Limit cycles (Tables 5.1, 5.2)")]
+    if not lc.get("available"):
+        return out + [P(lc.get("reason", "Not available."))]
+    if lc.get("error"):
+        return out + [P(f"The limit-cycle comparison failed in this run: `{lc['error']}`.")]
+    out.append(
+        P(
+            "Limit cycles of the thesis's analog-computer loop predicted by harmonic balance from the fits "
+            "(`fitdf.thesis.thesis_limit_cycle_comparison`; per block the lowest-AICc model among "
+            + ", ".join(f"`{m}`" for m in (lc.get("models_offered") or ["all models"]))
+            + ") against the measured Tables 5.1 and 5.2."
+        )
+    )
+    if lc.get("figure"):
+        out.append(IMG(lc["figure"], "limit cycles, predicted against measured"))
+    rows = lc.get("rows") or []
+    if rows:
+        cols = [(c, c) for c in lc.get("columns", rows[0].keys())]
+        out.append(_records_table(rows, cols))
+    attrs = lc.get("attrs") or {}
+    scalars = {k: v for k, v in attrs.items() if not isinstance(v, (dict, list))}
+    if scalars:
+        out.append(UL([f"{k}: {fmt(v)}" for k, v in scalars.items()]))
+    for k, v in attrs.items():
+        if isinstance(v, dict) and v and all(isinstance(x, dict) for x in v.values()):
+            keys = list(
+                dict.fromkeys(
+                    c for x in v.values() for c in x if not isinstance(x[c], (dict, list))
+                )
+            )
+            out.append(
+                DETAILS(
+                    f"{k}",
+                    [
+                        TABLE(
+                            [k] + keys, [[name] + [x.get(c) for c in keys] for name, x in v.items()]
+                        )
+                    ],
+                )
+            )
+        elif isinstance(v, (dict, list)) and v:
+            out.append(DETAILS(f"{k}", [("code", json.dumps(v, indent=1))]))
+    return out
+
+
+def _audit_blocks(res):
+    a = res["audit"]
+    return [
+        H(2, "Audit of the printed tables (Appendix B)"),
+        _records_table(
+            a["tables"],
+            [
+                ("table", "table"),
+                ("core", "core"),
+                ("source_impedance_ohm", "source (ohm)"),
+                ("rows", "rows"),
+                ("flagged", "flagged"),
+                ("excluded_by_default", "excluded by default"),
+            ],
+        ),
+        P(
+            "DF factor per block (what the printed DF column follows, against the table's footnote):"
+        ),
+        _records_table(
+            a["block_factors"],
+            [(k, k) for k in (a["block_factors"][0] if a["block_factors"] else {})],
+        ),
+        DETAILS(f"All {len(a['findings'])} audit findings", [UL(a["findings"])]),
+    ]
+
+
+def _thesis_blocks(res):
+    out = [
+        H(2, "The thesis's computed curves (Graphs 4.1-4.7)"),
+        P("Redrawn from fitdf's models with the thesis's k = 1, c = 5 (`fitdf.plots.thesis`)."),
+    ]
+    for g in res["thesis_graphs"]:
+        out += [P(f"**Graph {g['graph']}** -- {g['title']}"), IMG(g["path"], f"Graph {g['graph']}")]
+    return out
+
+
+def _model_blocks(res):
+    return [
+        H(2, "Models"),
+        TABLE(
+            ["model", "law", "thesis equations", "parameters", "N depends on f"],
+            [
+                [
+                    f"`{m['name']}`",
+                    m["title"],
+                    m["equations"],
+                    ", ".join(p["name"] for p in m["parameters"]),
+                    m["frequency_dependent"],
+                ]
+                for m in res["models"]
+            ],
+        ),
+    ]
+
+
+def build_document(res: dict) -> list:
+    """The report as a list of blocks (see the module docstring)."""
+    blocks = [res["blocks"][k] for k in res["blocks"]]
+    toc = ["[Findings](#findings)", "[Summary](#summary)"]
+    toc += [f"[{b['title']}](#{slug(b['title'])})" for b in blocks]
+    toc += [
+        "[Cross-impedance prediction](#cross-impedance-prediction)",
+        "[Limit cycles (Tables 5.1, 5.2)](#limit-cycles-tables-51-52)",
+        "[Audit of the printed tables](#audit-of-the-printed-tables-appendix-b)",
+        "[The thesis's computed curves](#the-thesiss-computed-curves-graphs-41-47)",
+        "[Models](#models)",
+    ]
+    doc = [
+        H(1, "fitdf comparison report: describing-function models of three magnetic cores"),
+        P(
+            "Every candidate hysteresis law, seen through the winding measurement chain, fitted to the measured "
+            "describing functions of Appendix B (thesis Chapter V) by least squares and MCMC, ranked, and used to "
+            "predict across source impedance and to predict limit cycles. Generated by `fitdf report`; do not edit."
+        ),
+        *_settings_text(res),
+        H(2, "Contents"),
+        UL(toc),
+        H(2, "Findings"),
+        P("Generated from the numbers below."),
+        UL(res["findings"]),
+        H(2, "Summary"),
+        _summary_table(res),
+    ]
+    for b in blocks:
+        doc += _block_blocks(b)
+    doc += (
+        _cross_blocks(res)
+        + _limit_blocks(res)
+        + _audit_blocks(res)
+        + _thesis_blocks(res)
+        + _model_blocks(res)
+    )
+    return doc
