@@ -113,11 +113,29 @@ def _param_table(fit):
     )
 
 
+def _material_blocks(fit):
+    """The fit as material constants beside the Appendix A ranges."""
+    check = fit.get("appendix_a_check")
+    if not check:
+        return []
+    rows = [
+        [
+            c["quantity"],
+            c["fitted"],
+            c["unit"],
+            f"{fmt(c['low'])} .. {fmt(c['high']) if c['high'] is not None else '(no upper limit)'}",
+            "yes" if c["inside"] else "**no**",
+        ]
+        for c in check
+    ]
+    return [TABLE(["material constant", "fitted", "unit", "Appendix A", "inside"], rows)]
+
+
 def _param_blocks(rec):
     out = []
     for method, fits in (("least squares", rec["fits_lsq"]), ("MCMC", rec["fits_mcmc"])):
         for i, (model, fit) in enumerate(fits.items()):
-            body = [_param_table(fit)]
+            body = [_param_table(fit), *_material_blocks(fit)]
             if fit["warnings"]:
                 body.append(UL([f"warning: {w}" for w in fit["warnings"]]))
             if i == 0:
@@ -177,6 +195,62 @@ def _mcmc_blocks(rec):
             IMG(rec["figures"]["corner"], f"corner plot of {rec['order_lsq'][0]} on {rec['key']}")
         )
     return out
+
+
+def _chain_blocks(rec):
+    """The exact chain against its approximation: ranking, prediction gap, fitted constants."""
+    cc = rec.get("chain_comparison")
+    if not cc:
+        return []
+    same = cc["order_exact"] == cc["order_approximate"]
+    rows = []
+    for b in cc["best"]:
+        ce, ca = b["constants_exact"], b["constants_approximate"]
+        rows.append(
+            {
+                **b,
+                "mu_i": f"{fmt(ce.get('initial_permeability'), 3)} / {fmt(ca.get('initial_permeability'), 3)}",
+                "hc": f"{fmt(ce.get('coercive_force_oe'), 3)} / {fmt(ca.get('coercive_force_oe'), 3)}",
+                "bp": f"{fmt(ce.get('peak_flux_density_gauss'), 3)} / "
+                f"{fmt(ca.get('peak_flux_density_gauss'), 3)}",
+                "rw": f"{fmt(ce.get('winding_resistance_ohm'), 3)} / "
+                f"{fmt(ca.get('winding_resistance_ohm'), 3)}",
+            }
+        )
+    return [
+        H(
+            3,
+            f"Exact circuit ({cc['exact_chain']}) against its approximation ({cc['approximate_chain']})",
+        ),
+        P(
+            f"Every law is also fitted through the `{cc['approximate_chain']}` chain. Ranking there: "
+            + ", ".join(
+                f"{m} ({fmt(cc['rms_approximate'][m], 3)})" for m in cc["order_approximate"]
+            )
+            + (
+                " - the same order as the exact chain."
+                if same
+                else " - a different order from the exact chain."
+            )
+            + " The gap columns evaluate the approximation at the exact fit's parameters: its own "
+            "error, to set against the differences between the laws."
+        ),
+        _records_table(
+            rows,
+            [
+                ("model", "model"),
+                ("rms_exact", "RMS exact"),
+                ("rms_approximate", "RMS approx. (refit)"),
+                ("prediction_gap_rms", "gap RMS"),
+                ("prediction_gap_max", "gap max"),
+                ("phase_gap_max_deg", "phase gap max (deg)"),
+                ("mu_i", "mu_i exact / approx."),
+                ("hc", "H_c (Oe)"),
+                ("bp", "B_p (G)"),
+                ("rw", "r_winding (ohm)"),
+            ],
+        ),
+    ]
 
 
 def _block_blocks(rec):
@@ -239,6 +313,7 @@ def _block_blocks(rec):
                 )
             ],
         ),
+        *_chain_blocks(rec),
         H(3, "Parameters"),
         *_param_blocks(rec),
         H(3, "MCMC diagnostics"),

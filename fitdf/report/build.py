@@ -42,7 +42,7 @@ from tqdm.auto import tqdm
 
 from fitdf import __version__
 from fitdf.errors import OptionError
-from fitdf.inference.api import fit
+from fitdf.inference.api import DEFAULT_CHAIN, fit
 from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
@@ -130,6 +130,12 @@ class ReportSettings:
         Models drawn in the residual figure; the loci show the best two.
     workers : int
         Worker processes (1: serial; results are identical).
+    chain : str
+        The measurement chain of every fit (default: the exact ``voltage`` circuit).
+    approximate_chain : str or None
+        A second chain every model is also fitted through by least squares, to show how
+        far an approximation (``winding``: sinusoidal current) moves the ranking, the
+        predictions and the fitted constants; None skips it.
     """
 
     models: tuple | None = None
@@ -146,6 +152,8 @@ class ReportSettings:
     limit_cycles: bool = True
     plot_top: int = 3
     workers: int = 2
+    chain: str = DEFAULT_CHAIN
+    approximate_chain: str | None = "winding"
 
     @classmethod
     def for_run(cls, quick: bool = False, methods=("lsq", "mcmc")) -> ReportSettings:
@@ -172,8 +180,8 @@ class ReportSettings:
 
 
 # ------------------------------------------------------------------ jobs (top level: picklable)
-def _job_lsq(data, model, seed, n_starts):
-    return fit(data, model, method="lsq", seed=seed, n_starts=n_starts)
+def _job_lsq(data, model, seed, n_starts, chain):
+    return fit(data, model, chain=chain, method="lsq", seed=seed, n_starts=n_starts)
 
 
 def _job_mcmc(lsq, seed, n_steps, n_walkers):
@@ -186,9 +194,15 @@ def _job_cv(lsq, seed, n_starts):
     return cross_validate(lsq, seed=seed, n_starts=n_starts)
 
 
-def _job_cross(core, model, train_ohm, test_ohm, seed, n_starts):
+def _job_cross(core, model, train_ohm, test_ohm, seed, n_starts, chain):
     return cross_impedance(
-        core, models=[model], train_ohm=train_ohm, test_ohm=test_ohm, seed=seed, n_starts=n_starts
+        core,
+        models=[model],
+        chain=chain,
+        train_ohm=train_ohm,
+        test_ohm=test_ohm,
+        seed=seed,
+        n_starts=n_starts,
     ).to_dict(orient="records")
 
 
@@ -274,8 +288,23 @@ def _least_squares(settings, seed, runner, models, blocks) -> dict:
             models.index(bm[1]),
         ),
     )
-    jobs = {(b.key, m): (_job_lsq, (b.data, m, seed, settings.n_starts)) for b, m in order}
-    return runner.run(jobs, "least squares")
+    jobs = {
+        (b.key, m): (_job_lsq, (b.data, m, seed, settings.n_starts, settings.chain))
+        for b, m in order
+    }
+    if settings.approximate_chain:
+        jobs.update(
+            {
+                ("approx", b.key, m): (
+                    _job_lsq,
+                    (b.data, m, seed, settings.n_starts, settings.approximate_chain),
+                )
+                for b, m in order
+            }
+        )
+    done = runner.run(jobs, "least squares")
+    approx = {k[1:]: v for k, v in done.items() if k[0] == "approx"}
+    return {k: v for k, v in done.items() if k[0] != "approx"}, approx
 
 
 def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -> dict:
@@ -299,7 +328,7 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
         for m in _top(ranked.get(train_key, models), settings.cross_top):
             jobs[("cross", core, train, test, m)] = (
                 _job_cross,
-                (core, m, train, test, seed, settings.n_starts),
+                (core, m, train, test, seed, settings.n_starts, settings.chain),
             )
     done = runner.run(
         dict(sorted(jobs.items(), key=_long_first)), "MCMC, CV, cross-impedance, limit cycles"
@@ -341,7 +370,7 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) 
     models, blocks = settings.model_list(), settings.block_list()
     timing = {}
     t0 = time.perf_counter()
-    lsq = _least_squares(settings, seed, runner, models, blocks)
+    lsq, approx = _least_squares(settings, seed, runner, models, blocks)
     ranked = {
         b.key: list(ranking_table([lsq[(b.key, m)] for m in models])["model"]) for b in blocks
     }
@@ -368,6 +397,11 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) 
                 pick("mcmc", b.key),
                 pick("cv", b.key),
                 figures[("block", b.key)],
+                chain_comparison=rs.chain_comparison(
+                    [lsq[(b.key, m)] for m in ranked[b.key]],
+                    [approx[(b.key, m)] for m in models if (b.key, m) in approx],
+                    top=settings.plot_top,
+                ),
             )
             for b in blocks
         },

@@ -18,6 +18,7 @@ from PIL import Image
 from fitdf._json import clean
 from fitdf.data import audit, datasets
 from fitdf.inference.api import resolve_data
+from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import best_by_aicc, ranking_table
 from fitdf.models import get_model
 from fitdf.plots import (
@@ -209,6 +210,10 @@ def fit_record(r) -> dict:
         "info": {k: r.info[k] for k in _INFO_KEYS if k in r.info},
         "rows": _residual_columns(r),
     }
+    if r.material is not None:
+        rec["material"] = r.material["constants"]
+        if r.material.get("appendix_a_check") is not None:
+            rec["appendix_a_check"] = r.material["appendix_a_check"]
     if r.method == "mcmc":
         d = r.diagnostics
         rec["diagnostics"] = {k: d[k] for k in _DIAG_KEYS if k in d}
@@ -265,7 +270,9 @@ def _where_models_fail(lsq_ranked, n=5) -> dict:
     return {"rows": rows, "frequency_blocks": blocks}
 
 
-def block_record(block, lsq_ranked, mcmc_by_model, cv_by_model, figures) -> dict:
+def block_record(
+    block, lsq_ranked, mcmc_by_model, cv_by_model, figures, chain_comparison=None
+) -> dict:
     """Everything the report shows about one block (JSON-ready)."""
     mcmc_ranked = [mcmc_by_model[r.model] for r in lsq_ranked if r.model in mcmc_by_model]
     d = lsq_ranked[0].problem.data
@@ -284,10 +291,81 @@ def block_record(block, lsq_ranked, mcmc_by_model, cv_by_model, figures) -> dict
         "cv": {m: {k: v for k, v in c.items()} for m, c in cv_by_model.items()},
         "where_models_fail": _where_models_fail(lsq_ranked),
         "figures": figures,
+        "chain_comparison": chain_comparison,
     }
     rec["order_lsq"] = [row["model"] for row in rec["ranking_lsq"]]
     rec["order_mcmc"] = [row["model"] for row in rec["ranking_mcmc"]]
     return clean(rec)
+
+
+#: Material constants shown side by side for the two chains.
+_COMPARED_CONSTANTS = (
+    "initial_permeability",
+    "coercive_force_oe",
+    "peak_flux_density_gauss",
+    "squareness",
+    "winding_resistance_ohm",
+)
+
+
+def _constants(result) -> dict:
+    if result is None or result.material is None:
+        return {}
+    c = result.material["constants"]
+    return {k: c.get(k) for k in _COMPARED_CONSTANTS}
+
+
+def _prediction_gap(result, chain) -> dict:
+    """The exact fit's parameters seen through ``chain``: how far that chain's DF is from it."""
+    p = result.problem
+    other = FitProblem(p.data, p.model, chain, p.noise, p.fixed, p.geometry)
+    exact, approx = p.predict(result.internal), other.predict(result.internal)
+    gap = np.abs(approx - exact)
+    phase = np.abs(np.angle(approx / np.where(exact == 0, 1.0, exact), deg=True))
+    return {
+        "prediction_gap_rms": float(np.sqrt(np.mean(gap**2))),
+        "prediction_gap_max": float(np.max(gap)),
+        "phase_gap_max_deg": float(np.nanmax(np.where(exact == 0, np.nan, phase)))
+        if np.any(exact != 0)
+        else float("nan"),
+    }
+
+
+def chain_comparison(exact_ranked, approx_results, top=3) -> dict | None:
+    """The exact chain against an approximate one on one block (JSON-ready), or None.
+
+    ``order_*`` are the two rankings (RMS complex residual); for the ``top`` models of the
+    exact ranking, ``best`` gives both residuals, how far the approximate chain's DF is
+    from the exact one at the exact fit's parameters (the approximation's own error), and
+    the fitted material constants on each chain.
+    """
+    if not approx_results:
+        return None
+    by_model = {r.model: r for r in approx_results}
+    approx_table = ranking_table(list(approx_results))
+    rows = []
+    for r in exact_ranked[:top]:
+        a = by_model.get(r.model)
+        rows.append(
+            {
+                "model": r.model,
+                "rms_exact": r.metrics["rms_complex"],
+                "rms_approximate": None if a is None else a.metrics["rms_complex"],
+                **_prediction_gap(r, approx_results[0].chain),
+                "constants_exact": _constants(r),
+                "constants_approximate": _constants(a),
+            }
+        )
+    return clean(
+        {
+            "exact_chain": exact_ranked[0].chain,
+            "approximate_chain": approx_results[0].chain,
+            "order_exact": [r.model for r in exact_ranked],
+            "order_approximate": list(approx_table["model"]),
+            "rms_approximate": dict(zip(approx_table["model"], approx_table["rms_complex"])),
+            "best": rows,
+        }
+    )
 
 
 def cross_record(directions, cross: dict, figures: dict) -> list[dict]:
