@@ -1,0 +1,467 @@
+"""Preisach (Gaussian relay density) and Jiles-Atherton laws: DFs, histories, physical properties."""
+
+import numpy as np
+import pytest
+from scipy import integrate
+from scipy.integrate import solve_ivp
+from scipy.special import ndtr
+
+from fitdf.models.jiles_atherton import (
+    JA_1986,
+    JilesAtherton,
+    anhysteretic,
+    coupling,
+    ja_describing_function,
+    langevin,
+    loop_figures,
+    steady_loop,
+)
+from fitdf.models.preisach import (
+    Preisach,
+    PreisachState,
+    everett,
+    everett_slope,
+    preisach_describing_function,
+    preisach_output,
+    rayleigh_constant,
+)
+from fitdf.params import split_theta
+
+AMPS = np.array([1e-5, 1e-4, 5e-4, 1e-3, 2e-3, 5e-3, 5e-2])
+
+#: Round Permalloy-like loop, square Deltamax-like loop, interaction-dominated loop.
+PREISACH_SETS = {
+    "permalloy": dict(lambda_s=0.03, i_c=1e-3, sigma_c=0.5, i_i=5e-4, l_rev=10.0, f_rev=0.2),
+    "square": dict(lambda_s=0.03, i_c=1e-3, sigma_c=0.03, i_i=3e-5, l_rev=2.0, f_rev=0.03),
+    "interaction": dict(lambda_s=0.01, i_c=2e-4, sigma_c=2.0, i_i=3e-3, l_rev=30.0, f_rev=0.6),
+}
+#: Default, square (zeta = 0.9), avalanche (mean-field folds, jumps in the loop).
+JA_SETS = {
+    "default": dict(lambda_s=0.03, a=1e-3, k=1e-3, c=0.2, zeta=0.5),
+    "square": dict(lambda_s=0.03, a=2e-4, k=1e-3, c=0.05, zeta=0.9),
+    "avalanche": dict(lambda_s=0.03, a=1e-3, k=1e-4, c=0.1, zeta=0.9),
+}
+
+
+def theta_matrix(model, sets):
+    return np.array([[s[p.name] for p in model.params] for s in sets])
+
+
+# --- Preisach: Everett function ----------------------------------------------------------------
+
+
+def everett_by_quadrature(alpha, beta, i_c, sigma_c, i_i):
+    """``Int_0^w f(h) [G(alpha - h) - G(beta + h)] dh`` adaptively (the defining 1-D integral)."""
+    s = sigma_c * i_c
+    f = lambda h: (  # noqa: E731
+        np.exp(-0.5 * ((h - i_c) / s) ** 2)
+        / (s * np.sqrt(2 * np.pi) * ndtr(i_c / s))
+        * (ndtr((alpha - h) / i_i) - ndtr((beta + h) / i_i))
+    )
+    w = 0.5 * (alpha - beta)
+    pts = [p for p in (i_c - 3 * s, i_c, i_c + 3 * s) if 0 < p < w]
+    return integrate.quad(f, 0.0, w, points=pts or None, epsabs=0, epsrel=1e-12, limit=400)[0]
+
+
+@pytest.mark.parametrize("name", PREISACH_SETS)
+def test_everett_closed_form_is_the_triangle_integral(name):
+    th = PREISACH_SETS[name]
+    shape = {k: th[k] for k in ("i_c", "sigma_c", "i_i")}
+    rng = np.random.default_rng(3)
+    for _ in range(12):
+        beta, alpha = np.sort(rng.uniform(-4, 4, 2) * th["i_c"])
+        ref = everett_by_quadrature(alpha, beta, **shape)
+        assert everett(alpha, beta, **shape) == pytest.approx(ref, rel=1e-9, abs=1e-15)
+    assert everett(0.3, 0.5, **shape) == 0.0  # alpha <= beta: an empty triangle
+    assert everett(np.inf, -np.inf, **shape) == pytest.approx(1.0, abs=1e-15)  # unit mass
+
+
+def test_everett_slope_is_the_alpha_derivative():
+    th = dict(i_c=1e-3, sigma_c=0.4, i_i=6e-4)
+    beta, alpha = -2e-3, np.linspace(-1.9e-3, 4e-3, 9)
+    h = 1e-9
+    fd = (everett(alpha + h, beta, **th) - everett(alpha - h, beta, **th)) / (2 * h)
+    np.testing.assert_allclose(everett_slope(alpha, beta, **th), fd, rtol=1e-6)
+
+
+# --- Preisach: describing function ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", PREISACH_SETS)
+def test_preisach_fast_df_matches_referee(name):
+    th = PREISACH_SETS[name]
+    N = Preisach.describing_function(AMPS, **th)
+    ref = Preisach.numerical_describing_function(AMPS, n_points=2**15, **th)
+    np.testing.assert_allclose(N, ref, rtol=1e-6, atol=0)
+    assert Preisach.describing_function(0.0, **th) == th["l_rev"]  # small-signal limit
+
+
+def test_preisach_df_rule_against_adaptive_quadrature():
+    # the relay part alone (f_rev -> 0 leaves lambda_s (1 - f_rev) ~ lambda_s); random draws
+    # over the bounds, against scipy quad split at the integrand's features
+    rng = np.random.default_rng(11)
+    for _ in range(25):
+        m, sc, t, A = 10 ** rng.uniform([-4, -1.5, -6, -5], [-2, 0.7, -2, -1.3])
+        s = sc * m
+        S = np.hypot(s, t)
+        feats = list(m + S * np.arange(-9, 9.5, 1.5))
+        feats += list(-m * t * t / (s * s) + t * S / s * np.array([-4, -1, 0, 1, 4]))
+        xs = (A * S * S - 2 * m * t * t) / (s * s - t * t)
+        feats += list(xs + 2 * s * t * S / abs(s * s - t * t) * np.array([-4, -1, 0, 1, 4]))
+        pts = sorted({np.arcsin(x / A) for x in feats if -A < x < A})
+        D = lambda th: everett_slope(A * np.sin(th), -A, i_c=m, sigma_c=sc, i_i=t)  # noqa: E731
+        kw = dict(points=pts or None, epsabs=0, epsrel=1e-12, limit=1000)
+        re = integrate.quad(lambda th: D(th) * np.cos(th) ** 2, -np.pi / 2, np.pi / 2, **kw)[0]
+        im = integrate.quad(
+            lambda th: -D(th) * np.sin(th) * np.cos(th), -np.pi / 2, np.pi / 2, **kw
+        )[0]
+        ref = 4 / np.pi * (re + 1j * im)
+        lrev, frev = 1.0, 1e-12
+        N = preisach_describing_function(
+            A, lambda_s=1.0, i_c=m, sigma_c=sc, i_i=t, l_rev=lrev, f_rev=frev
+        )
+        i_r = 2 * frev / (np.pi * lrev)
+        irr = (N - 2 * lrev / (1 + np.hypot(1, A / i_r))) / (1 - frev)
+        assert abs(irr - ref) <= 1e-8 * abs(ref) + 1e-15 / A
+
+
+def test_preisach_rayleigh_limit():
+    # A << i_c, i_i: eq 3.7 with mu0 = l_rev and gamma = (1 - f_rev) lambda_s f(0) g(0);
+    # the quadrature part -4 gamma A / (3 pi) is exact to O(A / i)
+    th = PREISACH_SETS["permalloy"]
+    gamma = rayleigh_constant(**th)
+    errs = []
+    for A in (1e-7, 1e-6):
+        N = Preisach.describing_function(A, **th)
+        errs.append(abs(N.imag / (-4 * gamma * A / (3 * np.pi)) - 1))
+        assert (N.real - th["l_rev"]) / (gamma * A) == pytest.approx(1, abs=0.02)
+    assert errs[1] < 2e-2 and errs[0] < errs[1] / 5  # first order in A
+
+
+def test_preisach_square_loop_maps_to_material_constants():
+    # narrow densities: the coercive current of the major loop is i_c, the remanence
+    # (1 - f_rev) lambda_s (squareness 0.97 here, Deltamax >= 0.92)
+    th = PREISACH_SETS["square"]
+    x = np.linspace(-5e-2, 5e-2, 400001)
+    y = Preisach.ascending_branch(x, 5e-2, **th)
+    hc = np.interp(0.0, y, x)
+    assert hc == pytest.approx(th["i_c"], rel=0.01)
+    assert -y[200000] / th["lambda_s"] == pytest.approx(1 - th["f_rev"], abs=0.01)
+    assert y[-1] == pytest.approx(th["lambda_s"], rel=0.01)  # saturated at 50 i_c
+
+
+@pytest.mark.parametrize("name", PREISACH_SETS)
+def test_preisach_passive_monotone_saturating(name):
+    th = PREISACH_SETS[name]
+    A = np.logspace(-6, -0.5, 40)
+    N = Preisach.describing_function(A, **th)
+    assert np.all(N.imag <= 0) and np.all(N.real > 0)
+    for a in (1e-4, 2e-3, 0.3):
+        x = np.linspace(-a, a, 2001)
+        up = Preisach.ascending_branch(x, a, **th)
+        down = -Preisach.ascending_branch(-x, a, **th)
+        assert np.all(np.diff(up) >= 0)  # non-negative differential inductance
+        assert np.all(down - up >= -1e-15)  # descending above ascending: area >= 0
+        assert up[-1] == pytest.approx(down[-1], abs=1e-15)  # the loop closes at the tips
+        assert np.all(np.abs(up) < th["lambda_s"])  # saturation by construction
+
+        def gap(v):
+            return -Preisach.ascending_branch(-v, a, **th) - Preisach.ascending_branch(v, a, **th)
+
+        width = np.hypot(th["sigma_c"] * th["i_c"], th["i_i"])
+        edges = np.concatenate(
+            [sign * (th["i_c"] + width * np.arange(-10, 11)) for sign in (-1, 1)]
+        )
+        edges = sorted(e for e in edges if -a < e < a)
+        area = integrate.quad(gap, -a, a, points=edges or None, epsabs=0, epsrel=1e-10, limit=500)[
+            0
+        ]
+        assert -np.pi * a**2 * Preisach.describing_function(a, **th).imag == pytest.approx(
+            area, rel=1e-7
+        )
+    assert Preisach.describing_function(-2e-3, **th) == Preisach.describing_function(2e-3, **th)
+
+
+def test_preisach_batch_equals_loop():
+    theta = theta_matrix(Preisach, PREISACH_SETS.values())
+    rng = np.random.default_rng(5)
+    theta = np.vstack([theta, theta[rng.integers(0, 3, 29)] * rng.uniform(0.7, 1.3, (29, 6))])
+    batch = Preisach.evaluate(AMPS, np.zeros_like(AMPS), theta)
+    assert batch.shape == (32, AMPS.size)
+    for row, t in zip(batch, theta):
+        np.testing.assert_allclose(row, Preisach.evaluate(AMPS, np.zeros_like(AMPS), t), rtol=1e-14)
+
+
+# --- Preisach: arbitrary histories against a brute-force relay grid ------------------------------
+
+HISTORIES = {
+    "major": [0, 5e-3, -5e-3, -1e-3, 1e-3, 2e-3, 5e-3],
+    "minor": [0, 4e-3, -4e-3, 1e-3, 0.2e-3, 0.8e-3, -0.5e-3, 2e-3],
+    "asymmetric": [0, 2.5e-3, -0.7e-3, 1.9e-3, 0.4e-3, 1.5e-3, -1.2e-3, 0.9e-3, 3e-3, -3.1e-3],
+}
+GRID_THETA = dict(i_c=1e-3, sigma_c=0.4, i_i=6e-4)
+
+
+def relay_grid(n, history, initial):
+    """Output of ``n x n`` relays on a midpoint grid of (h, u), with a bound on its error.
+
+    A cell straddled by a switching line ``alpha = x`` or ``beta = x`` of the history may be
+    wholly misassigned; the sum of those cells' weights (x2 for the +-1 outputs) bounds the
+    error, plus the midpoint rule's O(cell^2) and the mass beyond 8 deviations (~1e-15).
+    """
+    m, s, t = GRID_THETA["i_c"], GRID_THETA["sigma_c"] * GRID_THETA["i_c"], GRID_THETA["i_i"]
+    hmax, umax = m + 8 * s, 8 * t
+    dh, du = hmax / n, 2 * umax / n
+    H, U = np.meshgrid((np.arange(n) + 0.5) * dh, -umax + (np.arange(n) + 0.5) * du, indexing="ij")
+    w = (
+        np.exp(-0.5 * ((H - m) / s) ** 2 - 0.5 * (U / t) ** 2)
+        / (2 * np.pi * s * t * ndtr(m / s))
+        * dh
+        * du
+    )
+    al, be = U + H, U - H
+    state = {
+        "demagnetized": np.where(U < 0, 1.0, -1.0),
+        "negative": -np.ones_like(H),
+        "positive": np.ones_like(H),
+    }[initial]
+    straddle = np.zeros(H.shape, bool)
+    out = []
+    for x in history:
+        state = np.where(x >= al, 1.0, np.where(x <= be, -1.0, state))
+        out.append(np.sum(w * state))
+        straddle |= (np.abs(al - x) < 0.5 * (dh + du)) | (np.abs(be - x) < 0.5 * (dh + du))
+    return np.array(out), 2 * np.sum(w[straddle]) + 1e-4
+
+
+@pytest.mark.parametrize("initial", ["demagnetized", "negative", "positive"])
+@pytest.mark.parametrize("name", HISTORIES)
+def test_history_against_relay_grid(name, initial):
+    hist = HISTORIES[name]
+    state = PreisachState(
+        hist[0], initial=initial, lambda_s=1.0, l_rev=1.0, f_rev=0.5, **GRID_THETA
+    )
+    P = [state.irreversible]
+    for x in hist[1:]:
+        state.update(x)
+        P.append(state.irreversible)
+    P = np.array(P)
+    errors = []
+    for n in (200, 400):
+        grid, bound = relay_grid(n, hist, initial)
+        assert np.all(np.abs(grid - P) <= bound)
+        errors.append(np.max(np.abs(grid - P)))
+    assert errors[1] < 0.7 * errors[0]  # first-order convergence of the grid (cells cut by lines)
+    assert errors[1] < 2e-3
+
+
+def test_history_from_demagnetized_gives_the_steady_branch():
+    th = PREISACH_SETS["permalloy"]
+    A = 3e-3
+    x = np.linspace(-A, A, 9)
+    lam = preisach_output(np.concatenate(([0.0, A, -A], x)), **th)[3:]
+    np.testing.assert_allclose(lam, Preisach.ascending_branch(x, A, **th), rtol=0, atol=1e-15)
+
+
+def test_history_wiping_out_and_odd_symmetry():
+    th = PREISACH_SETS["permalloy"]
+    path = np.array([0, 2e-3, -1e-3, 1.5e-3, 0.5e-3, 3e-3, -0.2e-3])
+    out = preisach_output(path, **th)
+    # passing 2e-3 wipes the minor loop (2e-3, -1e-3, 1.5e-3, 0.5e-3) out
+    direct = preisach_output(np.array([0, 2e-3, -1e-3, 3e-3, -0.2e-3]), **th)
+    assert out[-1] == pytest.approx(direct[-1], abs=1e-15)
+    np.testing.assert_allclose(preisach_output(-path, **th), -out, atol=1e-15)  # odd
+    # a return to a reversal point closes the minor loop (congruency / return-point memory)
+    loop = preisach_output(np.array([0, 4e-3, -1e-3, 1e-3, -1e-3]), **th)
+    assert loop[-1] == pytest.approx(loop[2], abs=1e-15)
+
+
+def test_history_batch_equals_loop():
+    theta = theta_matrix(Preisach, PREISACH_SETS.values())
+    path = np.array([0, 3e-3, -2e-3, 1e-3, -0.5e-3, 4e-3])
+    batch = preisach_output(path, **split_theta(Preisach.params, theta))
+    assert batch.shape == (3, path.size)
+    for row, th in zip(batch, PREISACH_SETS.values()):
+        np.testing.assert_allclose(row, preisach_output(path, **th), rtol=1e-14)
+    with pytest.raises(ValueError, match="initial"):
+        PreisachState(0.0, initial="virgin", **PREISACH_SETS["permalloy"])
+
+
+# --- Jiles-Atherton -------------------------------------------------------------------------------
+
+
+def ja_multicycle(A, lambda_s, a, k, c, zeta, cycles=12, samples=1001):
+    """Brute force: JA equations in H_e by DOP853 (rtol 1e-12), half cycle after half cycle
+    from the demagnetised state (H = M = 0), each ending at the event H = +-A. Returns the
+    last descending and ascending branches as (H, M) samples and the last cycle's change."""
+    alpha = coupling(lambda_s=lambda_s, a=a, zeta=zeta)
+
+    def total(he, mi):
+        return (1 - c) * mi + c * lambda_s * langevin(he / a)
+
+    he, mi, branches = 0.0, 0.0, []
+    for half in range(2 * cycles + 1):
+        d = 1.0 if half % 2 == 0 else -1.0
+
+        def rhs(s, y, he=he, d=d):
+            return [d * max(d * (lambda_s * float(langevin((he + d * s) / a)) - y[0]), 0.0) / k]
+
+        def tip(s, y, he=he, d=d):
+            return he + d * s - alpha * total(he + d * s, y[0]) - d * A
+
+        tip.terminal = True
+        sol = solve_ivp(
+            rhs,
+            (0, 2 * A + 2 * alpha * lambda_s + 10 * a),
+            [mi],
+            events=tip,
+            rtol=1e-12,
+            atol=1e-14 * lambda_s,
+            method="DOP853",
+            dense_output=True,
+        )
+        s_end = sol.t_events[0][0]
+        ss = np.linspace(0, s_end, samples)
+        hes, mis = he + d * ss, sol.sol(ss)[0]
+        branches.append((hes - alpha * total(hes, mis), total(hes, mis)))
+        he, mi = he + d * s_end, sol.y_events[0][0][0]
+    up, down, prev = branches[-1], branches[-2], branches[-3]
+    change = np.max(np.abs(np.interp(up[0], prev[0], prev[1]) - up[1]))
+    return down, up, change
+
+
+@pytest.mark.parametrize("name", JA_SETS)
+def test_ja_fast_df_matches_referee(name):
+    th = JA_SETS[name]
+    N = JilesAtherton.describing_function(AMPS, **th)
+    ref = JilesAtherton.numerical_describing_function(AMPS, n_points=2**15, **th)
+    np.testing.assert_allclose(N, ref, rtol=1e-8, atol=0)
+
+
+@pytest.mark.parametrize("name, A", [("default", 2e-3), ("square", 1.5e-3), ("ja1986", 3000.0)])
+def test_ja_steady_loop_is_the_limit_cycle_from_demagnetised(name, A):
+    # both branches of the converged brute-force cycle against the fixed-point loop: the
+    # descending one as the point reflection, i.e. the loop is symmetric
+    th = JA_1986 if name == "ja1986" else JA_SETS[name]
+    down, up, change = ja_multicycle(A, **th)
+    assert change < 1e-9 * th["lambda_s"]  # the brute force has converged
+    asc = JilesAtherton.ascending_branch(up[0], A, **th)
+    desc = -JilesAtherton.ascending_branch(-down[0], A, **th)
+    assert np.max(np.abs(asc - up[1])) < 1e-7 * th["lambda_s"]
+    assert np.max(np.abs(desc - down[1])) < 1e-7 * th["lambda_s"]
+
+
+def test_ja_published_parameter_set():
+    # Jiles & Atherton (1986) set, SI units (lambda_s = M_s in A/m, fields in A/m), H_m = 3000:
+    # H_c ~ (1 - c) k; the remanence and tip are regression values, confirmed by the brute
+    # force above (this formulation) and within ~1 % of the 1986 H-form (H_c 316.1 A/m,
+    # M_r 5.015e5 A/m, tip 1.2175e6 A/m, integrated independently while writing this test)
+    fig = loop_figures(3000.0, n_out=64, **JA_1986)
+    assert fig["coercive"] == pytest.approx(314.19, rel=2e-4)
+    assert fig["coercive"] == pytest.approx((1 - JA_1986["c"]) * JA_1986["k"], rel=0.02)
+    assert fig["remanence"] == pytest.approx(4.9646e5, rel=2e-4)
+    assert fig["tip"] == pytest.approx(1.21731e6, rel=2e-5)
+    assert JA_1986["zeta"] == pytest.approx(0.7758, abs=1e-4)
+
+
+def test_ja_anhysteretic_limits():
+    th = dict(JA_SETS["default"])
+    A = 5e-3
+    x = np.linspace(-A, A, 201)
+    an = anhysteretic(x, **th)
+    # k -> 0: the irreversible magnetisation follows M_an with a lag ~ k dM_an/dH_e
+    for k in (1e-7, 1e-8):
+        y = JilesAtherton.ascending_branch(x, A, **{**th, "k": k})
+        assert np.max(np.abs(y - an)) < 30 * k / th["a"] * th["lambda_s"]
+    # c -> 1: the reversible part is the whole magnetisation
+    y = JilesAtherton.ascending_branch(x, A, **{**th, "c": 0.9999})
+    assert np.max(np.abs(y - an)) < 1e-4 * th["lambda_s"]
+    # the anhysteretic solves lambda = lambda_s L((x + alpha lambda)/a)
+    alpha = coupling(**th)
+    np.testing.assert_allclose(
+        an, th["lambda_s"] * langevin((x + alpha * an) / th["a"]), atol=1e-15
+    )
+
+
+@pytest.mark.parametrize("name", JA_SETS)
+def test_ja_loop_properties(name):
+    th = JA_SETS[name]
+    lam = th["lambda_s"]
+    for A in (1e-4, 1e-3, 5e-3, 5e-2):
+        x, y = steady_loop(A, n_out=64, **th)
+        assert x[0] == -A and x[-1] == A
+        assert y[-1] == pytest.approx(-y[0], abs=1e-13 * lam)  # symmetric loop
+        assert np.all(np.diff(x) > 0) and np.all(np.diff(y) >= 0)  # dM/dH >= 0, no folds
+        # dM/dH <= (lambda_s / 3a) / (1 - zeta): no avalanche for zeta < 1
+        slope = np.diff(y) / np.diff(x)
+        assert np.max(slope) <= lam / (3 * th["a"]) / (1 - th["zeta"]) * (1 + 1e-6)
+        N = JilesAtherton.describing_function(A, **th)
+        area = loop_figures(A, n_out=64, **th)["area"]
+        assert area > 0 and N.imag < 0
+        assert -np.pi * A**2 * N.imag == pytest.approx(area, rel=1e-5)  # loss per cycle
+
+
+def test_ja_folds_become_jumps_beyond_the_bounds():
+    # zeta >= 1 (outside the bounds): H(H_e) folds; the realised branch jumps, stays monotone
+    th = dict(lambda_s=0.03, a=1e-3, k=3e-4, c=0.1, zeta=1.5)
+    A = 3e-3
+    x, y = steady_loop(A, n_out=64, **th)
+    jumps = (np.diff(x) == 0) & (np.diff(y) > 0)
+    assert jumps.sum() == 1 and np.all(np.diff(x) >= 0) and np.all(np.diff(y) >= 0)
+    N = JilesAtherton.describing_function(A, **th)
+    assert -np.pi * A**2 * N.imag == pytest.approx(
+        loop_figures(A, n_out=64, **th)["area"], rel=1e-5
+    )
+    ref = JilesAtherton.numerical_describing_function(A, n_points=2**17, **th)
+    assert abs(N - ref) < 2e-5 * abs(ref)  # the referee's own O(1/n) error at the jump
+
+
+def test_ja_small_signal_limit_and_tabulation_refinement():
+    th = JA_SETS["default"]
+    L = th["lambda_s"] / (3 * th["a"])
+    limit = th["c"] * L / (1 - th["zeta"] * th["c"])
+    assert JilesAtherton.describing_function(0.0, **th) == pytest.approx(limit, rel=1e-14)
+    assert JilesAtherton.describing_function(1e-9, **th) == pytest.approx(limit, rel=1e-5)
+    # default step control against a 1e-12 refinement (the tabulation error)
+    A = np.array([1e-5, 3e-4, 1e-3, 3e-3, 3e-2])
+    fine = ja_describing_function(A, tol=1e-12, n_min=96, **th)
+    np.testing.assert_allclose(JilesAtherton.describing_function(A, **th), fine, rtol=1e-7)
+
+
+def test_ja_batch_equals_loop_and_odd_symmetry():
+    theta = theta_matrix(JilesAtherton, JA_SETS.values())
+    rng = np.random.default_rng(9)
+    extra = theta[rng.integers(0, 3, 29)] * rng.uniform(0.7, 1.3, (29, 5))
+    extra[:, 4] = np.minimum(extra[:, 4], 0.95)
+    theta = np.vstack([theta, extra])
+    batch = JilesAtherton.evaluate(AMPS, np.zeros_like(AMPS), theta)
+    assert batch.shape == (32, AMPS.size)
+    for row, t in zip(batch, theta):
+        np.testing.assert_allclose(
+            row, JilesAtherton.evaluate(AMPS, np.zeros_like(AMPS), t), rtol=1e-14
+        )
+    th = JA_SETS["default"]
+    assert JilesAtherton.describing_function(-2e-3, **th) == JilesAtherton.describing_function(
+        2e-3, **th
+    )
+    x = np.linspace(-2e-3, 2e-3, 7)
+    np.testing.assert_array_equal(
+        JilesAtherton.ascending_branch(x, -2e-3, **th),
+        JilesAtherton.ascending_branch(x, 2e-3, **th),
+    )
+
+
+def test_ja_passive_and_finite_over_the_bounds():
+    rng = np.random.default_rng(21)
+    lo = np.array([p.internal_bounds[0] for p in JilesAtherton.params])
+    hi = np.array([p.internal_bounds[1] for p in JilesAtherton.params])
+    internal = rng.uniform(lo, hi, (40, 5))
+    theta = np.column_stack(
+        [p.from_internal(internal[:, i]) for i, p in enumerate(JilesAtherton.params)]
+    )
+    A = np.logspace(-6, -1, 11)
+    N = JilesAtherton.evaluate(A, np.zeros_like(A), theta)
+    assert np.all(np.isfinite(N))
+    # Im N is a cancelling sum for very thin loops: at the box corner k / a = 1e6, A = a it
+    # comes out +2e-8 |N| (true value ~ -5e-9 |N|); nothing larger was found in 600 x 19 draws
+    assert np.all(N.imag <= 1e-7 * np.abs(N)) and np.all(N.real > 0)
