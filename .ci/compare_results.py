@@ -5,6 +5,7 @@ Usage: python .ci/compare_results.py OLD/results.json NEW/results.json [--rtol 0
 Prints every path whose value differs (numbers beyond --rtol) and exits 1 when any does.
 Used to show that a refactoring changes no number.
 """
+
 import argparse
 import json
 import math

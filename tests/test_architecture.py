@@ -3,6 +3,7 @@
 The layer order lives in pyproject.toml (``[tool.importlinter]``): cli > report > plots >
 thesis > loop > inference > chains > models > describing | data > params | _json > errors.
 """
+
 from __future__ import annotations
 
 import ast
@@ -36,8 +37,11 @@ def test_no_imports_hidden_inside_functions():
         tree = ast.parse(path.read_text(encoding="utf-8"))
         for func in ast.walk(tree):
             if isinstance(func, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                hidden += [f"{path.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}"
-                           for node in ast.walk(func) if isinstance(node, (ast.Import, ast.ImportFrom))]
+                hidden += [
+                    f"{path.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}"
+                    for node in ast.walk(func)
+                    if isinstance(node, (ast.Import, ast.ImportFrom))
+                ]
     assert not hidden, "\n".join(hidden)
 
 
@@ -46,8 +50,15 @@ def test_no_self_inspection():
     offenders = []
     for path in sorted(PACKAGE.rglob("*.py")):
         text = path.read_text(encoding="utf-8")
-        for needle in ("inspect.signature", "import inspect", "except ImportError", "ModuleNotFoundError"):
-            if needle in text and not (path.name == "datasets.py" and needle == "ModuleNotFoundError"):
+        for needle in (
+            "inspect.signature",
+            "import inspect",
+            "except ImportError",
+            "ModuleNotFoundError",
+        ):
+            if needle in text and not (
+                path.name == "datasets.py" and needle == "ModuleNotFoundError"
+            ):
                 offenders.append(f"{path.relative_to(ROOT)}: {needle}")
     assert not offenders, offenders
 

@@ -146,13 +146,12 @@ def _adaptive(A, mu0, gamma, c_sat):
     tc = np.arcsin(coercive_force(A, mu0, gamma) / A)
 
     def part(weight):
-        f = lambda t: (
-            Rayleigh.ascending_branch(A * np.sin(t), A, mu0=mu0, gamma=gamma, c_sat=c_sat)
-            * weight(t)
-        )  # noqa
-        with (
-            warnings.catch_warnings()
-        ):  # "roundoff detected" near 1e-12 is harmless at the 1e-6 asked
+        def f(t):
+            branch = Rayleigh.ascending_branch(A * np.sin(t), A, mu0=mu0, gamma=gamma, c_sat=c_sat)
+            return branch * weight(t)
+
+        # "roundoff detected" near 1e-12 is harmless at the 1e-6 asked
+        with warnings.catch_warnings():
             warnings.simplefilter("ignore", integrate.IntegrationWarning)
             return sum(
                 integrate.quad(f, a, b, epsabs=0, epsrel=1e-11, limit=400)[0]

@@ -1,15 +1,20 @@
-"""The committed HTML report, opened as a reader would: headless Chromium renders reports/index.html.
+"""The HTML report, opened as a reader would: headless Chromium renders an index.html
+that the test itself has just generated (a tiny report: one block, one model, a short
+MCMC chain and the limit-cycle comparison), so what is checked is the current code's
+output, not a committed file.
 
 Checks what can be checked from outside the browser: the DOM Chromium builds holds the
-ranking tables and the figures as ``data:`` PNGs (each decodes as a valid PNG), nothing
-points outside the file, the browser logs no page errors, and the screenshots show
-content (kept in ``test-artifacts/`` for a human to look at).
+ranking tables and every figure of results.json as a ``data:`` PNG (each decodes as a
+valid PNG), nothing points outside the file, the browser logs no page errors, and the
+screenshots show content (kept in ``test-artifacts/`` for a human to look at). Skipped,
+with the reason, where Chromium is not installed.
 """
 
 from __future__ import annotations
 
 import base64
 import io
+import json
 import re
 import shutil
 import subprocess
@@ -18,10 +23,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fitdf.report.build import ReportSettings, generate_report
+
 pytestmark = pytest.mark.browser
 
 REPO = Path(__file__).resolve().parents[1]
-REPORT = REPO / "reports" / "index.html"
 ARTIFACTS = REPO / "test-artifacts"
 FLAGS = [
     "--headless",
@@ -47,9 +53,42 @@ CHROMIUM = _chromium()
 needs = pytest.mark.skipif(
     CHROMIUM is None, reason="headless Chromium not installed (apt-get install chromium)"
 )
-needs_report = pytest.mark.skipif(
-    not REPORT.exists(), reason="reports/index.html not generated (run `fitdf report`)"
+
+#: A report small enough for a test that still has every kind of figure: fit, loci,
+#: residuals and corner (a short MCMC chain) of one block, the limit-cycle comparison
+#: (Tables 5.1/5.2) and the thesis graphs.
+TINY_HTML = ReportSettings(
+    models=("proportional_width",),
+    blocks=("B.1",),
+    n_starts=1,
+    mcmc_top=1,
+    n_steps=60,
+    n_walkers=16,
+    cv_top=0,
+    cross=(),
+    limit_cycles=True,
+    workers=1,
 )
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory) -> Path:
+    """index.html of a freshly generated tiny report (built only when Chromium is there)."""
+    if CHROMIUM is None:
+        pytest.skip("headless Chromium not installed (apt-get install chromium)")
+    out = tmp_path_factory.mktemp("browser") / "report"
+    generate_report(out, seed=0, progress=False, settings=TINY_HTML)
+    return out / "index.html"
+
+
+def _figure_paths(results: dict) -> list[str]:
+    """Every figure results.json lists (each must be embedded in index.html)."""
+    paths = [p for rec in results["blocks"].values() for p in rec["figures"].values() if p]
+    paths += [g["path"] for g in results["thesis_graphs"]]
+    paths += [c["figure"] for c in results["cross_impedance"] if c.get("figure")]
+    if results["limit_cycles"].get("figure"):
+        paths.append(results["limit_cycles"]["figure"])
+    return paths
 
 
 def _run(tmp_path, *args, timeout=120):
@@ -75,25 +114,33 @@ def _page_errors(stderr: str) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def dom(tmp_path_factory):
-    if CHROMIUM is None or not REPORT.exists():
-        pytest.skip("needs Chromium and reports/index.html")
+def results(report) -> dict:
+    return json.loads((report.parent / "results.json").read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module")
+def dom(report, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("chromium")
-    proc = _run(tmp, "--dump-dom", REPORT.as_uri())
+    proc = _run(tmp, "--dump-dom", report.as_uri())
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert not _page_errors(proc.stderr), _page_errors(proc.stderr)
     return proc.stdout
 
 
 @needs
-@needs_report
-def test_dom_has_rankings_and_embedded_figures(dom):
+def test_dom_has_rankings_and_embedded_figures(dom, results):
     assert "fitdf comparison report" in dom
     tables = re.findall(r"<table>.*?</table>", dom, re.S)
     rankings = [t for t in tables if "<th>RMS complex</th>" in t and "<th>AICc</th>" in t]
-    assert len(rankings) >= 7  # one least-squares ranking per block at least
+    assert len(rankings) >= len(results["blocks"])  # a least-squares ranking per block at least
+    for rec in results["blocks"].values():
+        for model in rec["order_lsq"]:
+            assert model in dom
+    figures = _figure_paths(results)
+    assert {"fit", "loci", "residuals", "corner"} <= set(results["blocks"]["B.1"]["figures"])
+    assert results["limit_cycles"].get("figure"), results["limit_cycles"]
     srcs = re.findall(r'<img src="([^"]*)"', dom)
-    assert len(srcs) >= 7 * 3 + 7  # fit, loci, residuals per block; thesis graphs
+    assert len(srcs) == len(figures)  # every figure of results.json, embedded
     for src in srcs:
         assert src.startswith("data:image/png;base64,")
         png = base64.b64decode(src.split(",", 1)[1], validate=True)
@@ -102,7 +149,6 @@ def test_dom_has_rankings_and_embedded_figures(dom):
 
 
 @needs
-@needs_report
 def test_embedded_pngs_decode(dom):
     from matplotlib import image
 
@@ -126,17 +172,16 @@ def _screenshot(tmp_path, url: str, name: str, height: int) -> Path:
 
 
 @needs
-@needs_report
-def test_screenshots_show_the_report(tmp_path):
+def test_screenshots_show_the_report(report, tmp_path):
     from matplotlib import image
 
-    top = _screenshot(tmp_path, REPORT.as_uri(), "report_top.png", 2000)
+    top = _screenshot(tmp_path, report.as_uri(), "report_top.png", 2000)
     pixels = image.imread(top)
     assert pixels.shape[:2] == (2000, 1280)
     ink = np.mean(np.any(pixels[..., :3] < 0.9, axis=-1))
     assert ink > 0.02  # text and tables, not a blank page
     # A tall window reaches the first block's figures (headless screenshots ignore #anchors).
-    tall = _screenshot(tmp_path, REPORT.as_uri(), "report_first_block.png", 6000)
+    tall = _screenshot(tmp_path, report.as_uri(), "report_first_block.png", 6000)
     rgb = (image.imread(tall)[2000:, :, :3] * 255).astype(int)
     colours = np.unique(rgb.reshape(-1, 3)[::7], axis=0)
     assert len(colours) > 200  # figures (colour curves, bands) were rendered
