@@ -1,0 +1,249 @@
+"""The realised Jiles-Atherton branch: monotone pieces, describing function, evaluation, tables.
+
+From the nodes ``(H_e, M, dM/dH_e)`` of the steady ascending branch
+(:mod:`fitdf.models._ja_integrate`) the parametric cubics are cut into pieces monotone in
+``H`` (folds become vertical jumps); on them the numba kernels integrate ``N(A)``, invert
+``H(H_e)`` to evaluate the branch at given inputs and sample it for tables.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from fitdf.models._ja_integrate import _CAP, _cubic, _poly, _steady
+
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(10)
+# Gauss-Legendre in v on [0, 1] through t = (1 - cos(pi v)) / 2: removes the square-root
+# end behaviour of sqrt(A^2 - H^2) at the tips.
+_V = 0.5 * (_GL_X + 1.0)
+_T_OF_V = 0.5 * (1.0 - np.cos(np.pi * _V))
+_W_OF_V = 0.5 * _GL_W * 0.5 * np.pi * np.sin(np.pi * _V)
+
+
+@numba.njit(cache=True)
+def _segment(rec_e, rec_m, rec_d, j, kap):
+    """Cubics in ``t`` of ``M`` and ``H = H_e - alpha M`` on segment ``j``."""
+    step = rec_e[j + 1] - rec_e[j]
+    m0, m1, m2, m3 = _cubic(rec_m[j], rec_d[j], rec_m[j + 1], rec_d[j + 1], step)
+    return m0, m1, m2, m3, rec_e[j] - kap * m0, step - kap * m1, -kap * m2, -kap * m3
+
+
+@numba.njit(cache=True)
+def _monotone_cuts(g1, g2, g3, cuts):
+    """``0``, the zeros of ``dH/dt = g1 + 2 g2 t + 3 g3 t^2`` inside (0, 1), ``1``; their count."""
+    nc = 1
+    cuts[0] = 0.0
+    qa, qb, qc = 3.0 * g3, 2.0 * g2, g1
+    if qa != 0.0:
+        disc = qb * qb - 4.0 * qa * qc
+        if disc > 0.0:
+            sq = math.sqrt(disc)
+            qq = -0.5 * (qb + (sq if qb >= 0.0 else -sq))
+            r1 = qq / qa
+            r2 = qc / qq if qq != 0.0 else r1
+            for r in (min(r1, r2), max(r1, r2)):
+                if 0.0 < r < 1.0:
+                    cuts[nc] = r
+                    nc += 1
+    elif qb != 0.0:
+        r = -qc / qb
+        if 0.0 < r < 1.0:
+            cuts[nc] = r
+            nc += 1
+    cuts[nc] = 1.0
+    return nc + 1
+
+
+@numba.njit(cache=True)
+def _pieces(rec_e, rec_m, rec_d, n, kap, A, seg, t0, t1, h0, h1, mj0, mj1):
+    """Split the branch into pieces monotone in ``H``, cutting the folds into vertical jumps.
+
+    A rising ``H`` realises the parametric curve only where ``H`` equals its running maximum;
+    a dip (avalanche) is replaced by a jump at the maximum, from the fold's ``M`` to ``M``
+    where the curve comes back to it. Piece ``i``: segment ``seg[i]`` on ``[t0, t1]``
+    (``seg = -1``: a jump at ``h0 = h1`` from ``mj0`` to ``mj1``). Returns the count.
+    """
+    count = 0
+    h_max = -A
+    m_at_max = rec_m[0]
+    cuts = np.empty(4)
+    for j in range(n - 1):
+        m0, m1, m2, m3, g0, g1, g2, g3 = _segment(rec_e, rec_m, rec_d, j, kap)
+        nc = _monotone_cuts(g1, g2, g3, cuts)
+        for p in range(nc - 1):
+            ta, tb = cuts[p], cuts[p + 1]
+            ha, hb = _poly(g0, g1, g2, g3, ta), _poly(g0, g1, g2, g3, tb)
+            if j == n - 2 and p == nc - 2:
+                hb = A
+            if hb <= ha or hb <= h_max:
+                continue
+            if ha < h_max - 1e-14 * A:  # back from an avalanche: jump, then the rest
+                lo, hi = ta, tb
+                for _it in range(200):
+                    mid = 0.5 * (lo + hi)
+                    if _poly(g0, g1, g2, g3, mid) < h_max:
+                        lo = mid
+                    else:
+                        hi = mid
+                    if hi - lo < 1e-15:
+                        break
+                ta = hi
+                seg[count], h0[count], h1[count] = -1, h_max, h_max
+                mj0[count], mj1[count] = m_at_max, _poly(m0, m1, m2, m3, ta)
+                count += 1
+            seg[count], t0[count], t1[count], h0[count], h1[count] = j, ta, tb, max(ha, h_max), hb
+            count += 1
+            h_max = hb
+            m_at_max = _poly(m0, m1, m2, m3, tb)
+    return count
+
+
+@numba.njit(cache=True)
+def _branch_df(A, rec_e, rec_m, rec_d, n, kap, seg, t0, t1, h0, h1, mj0, mj1, tv, wv):
+    """``N = (2/(pi A^2)) Int y_up'(x) [sqrt(A^2 - x^2) - j x] dx`` over the pieces."""
+    count = _pieces(rec_e, rec_m, rec_d, n, kap, A, seg, t0, t1, h0, h1, mj0, mj1)
+    re = 0.0
+    im = 0.0
+    A2 = A * A
+    for i in range(count):
+        if seg[i] < 0:
+            x = h0[i]
+            dm = mj1[i] - mj0[i]
+            re += dm * math.sqrt(max(A2 - x * x, 0.0))
+            im -= dm * x
+            continue
+        m0, m1, m2, m3, g0, g1, g2, g3 = _segment(rec_e, rec_m, rec_d, seg[i], kap)
+        w = t1[i] - t0[i]
+        for q in range(tv.size):
+            t = t0[i] + w * tv[q]
+            x = min(max(_poly(g0, g1, g2, g3, t), -A), A)
+            dm = (m1 + t * (2.0 * m2 + 3.0 * t * m3)) * w * wv[q]
+            re += dm * math.sqrt(max(A2 - x * x, 0.0))
+            im -= dm * x
+    f = 2.0 / (math.pi * A2)
+    return complex(f * re, f * im)
+
+
+@numba.njit(cache=True)
+def _branch_at(x, rec_e, rec_m, rec_d, kap, seg, t0, t1, h0, h1, mj0, mj1, count):
+    """``M`` on the realised branch at ``H = x`` (clipped to the branch's range)."""
+    x = min(max(x, h0[0]), h1[count - 1])
+    lo, hi = 0, count - 1
+    while lo < hi:  # first piece with h1 >= x
+        mid = (lo + hi) // 2
+        if h1[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    i = lo
+    if seg[i] < 0:
+        return mj1[i]
+    m0, m1, m2, m3, g0, g1, g2, g3 = _segment(rec_e, rec_m, rec_d, seg[i], kap)
+    ta, tb = t0[i], t1[i]
+    t = ta + (tb - ta) * (x - h0[i]) / (h1[i] - h0[i]) if h1[i] > h0[i] else tb
+    for _it in range(100):  # Newton on the monotone cubic, kept inside [ta, tb]
+        f = _poly(g0, g1, g2, g3, t) - x
+        if f > 0.0:
+            tb = t
+        else:
+            ta = t
+        df = g1 + t * (2.0 * g2 + 3.0 * t * g3)
+        tn = t - f / df if df > 0.0 else 0.5 * (ta + tb)
+        if not (ta <= tn <= tb):
+            tn = 0.5 * (ta + tb)
+        done = abs(tn - t) <= 1e-15 or tb - ta <= 1e-15
+        t = tn
+        if done:
+            break
+    return _poly(m0, m1, m2, m3, t)
+
+
+@numba.njit(cache=True)
+def _work(cap):
+    seg = np.empty(4 * cap, dtype=np.int64)
+    return (
+        np.empty(cap),
+        np.empty(cap),
+        np.empty(cap),
+        seg,
+        np.empty(4 * cap),
+        np.empty(4 * cap),
+        np.empty(4 * cap),
+        np.empty(4 * cap),
+        np.empty(4 * cap),
+        np.empty(4 * cap),
+    )
+
+
+@numba.njit(cache=True)
+def _df_loop(A, lam, a, k, c, kap, tol, nmin, cap, tv, wv, out):
+    rec_e, rec_m, rec_d, seg, t0, t1, h0, h1, mj0, mj1 = _work(cap)
+    for i in range(A.size):
+        if A[i] <= 0.0:  # small-signal limit: M_irr frozen, reversible slope with mean field
+            rev = c[i] * lam[i] / (3.0 * a[i])
+            out[i] = rev / (1.0 - kap[i] * rev) if kap[i] * rev < 1.0 else np.nan
+            continue
+        n = _steady(A[i], lam[i], a[i], k[i], c[i], kap[i], tol, nmin, rec_e, rec_m, rec_d)
+        if n < 2:
+            out[i] = complex(np.nan, np.nan)
+        else:
+            out[i] = _branch_df(
+                A[i], rec_e, rec_m, rec_d, n, kap[i], seg, t0, t1, h0, h1, mj0, mj1, tv, wv
+            )
+
+
+@numba.njit(cache=True)
+def _branch_loop(A, lam, a, k, c, kap, tol, nmin, cap, x_flat, x_index, out):
+    rec_e, rec_m, rec_d, seg, t0, t1, h0, h1, mj0, mj1 = _work(cap)
+    for i in range(A.size):
+        n = _steady(A[i], lam[i], a[i], k[i], c[i], kap[i], tol, nmin, rec_e, rec_m, rec_d)
+        count = (
+            _pieces(rec_e, rec_m, rec_d, n, kap[i], A[i], seg, t0, t1, h0, h1, mj0, mj1)
+            if n > 1
+            else 0
+        )
+        for j in range(x_index[i], x_index[i + 1]):
+            if count < 1:
+                out[j] = np.nan
+            else:
+                out[j] = _branch_at(
+                    x_flat[j], rec_e, rec_m, rec_d, kap[i], seg, t0, t1, h0, h1, mj0, mj1, count
+                )
+
+
+@numba.njit(cache=True)
+def _table(A, lam, a, k, c, kap, tol, nmin, cap, n_out):
+    """The realised branch sampled at ``n_out`` points per piece, and the number of nodes."""
+    rec_e, rec_m, rec_d, seg, t0, t1, h0, h1, mj0, mj1 = _work(cap)
+    n = _steady(A, lam, a, k, c, kap, tol, nmin, rec_e, rec_m, rec_d)
+    if n < 2:
+        return np.empty(0), np.empty(0), n
+    count = _pieces(rec_e, rec_m, rec_d, n, kap, A, seg, t0, t1, h0, h1, mj0, mj1)
+    xs = np.empty(count * n_out + 1)
+    ys = np.empty(count * n_out + 1)
+    xs[0], ys[0] = -A, rec_m[0]
+    m = 1
+    for i in range(count):
+        if seg[i] < 0:
+            xs[m], ys[m] = h0[i], mj1[i]
+            m += 1
+            continue
+        m0, m1, m2, m3, g0, g1, g2, g3 = _segment(rec_e, rec_m, rec_d, seg[i], kap)
+        for q in range(1, n_out + 1):
+            t = t0[i] + (t1[i] - t0[i]) * q / n_out
+            xs[m], ys[m] = _poly(g0, g1, g2, g3, t), _poly(m0, m1, m2, m3, t)
+            m += 1
+    xs[m - 1] = A
+    return xs[:m].copy(), ys[:m].copy(), n
+
+
+def _capacity(n_min):
+    return max(_CAP, 64 * int(n_min))
+
+
+def _flat(*values):
+    arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in values))
+    return arrays[0].shape, [np.ascontiguousarray(v.reshape(-1)) for v in arrays]
