@@ -7,6 +7,8 @@ from fitdf.models.base import HysteresisModel
 from fitdf.models.constant_width import ConstantWidth
 from fitdf.models.cubic_hc import CubicHc
 from fitdf.models.frequency_hc import FrequencyHc
+from fitdf.models.jiles_atherton import JilesAtherton
+from fitdf.models.preisach import Preisach
 from fitdf.models.proportional_width import ProportionalWidth, ProportionalWidthFig42
 from fitdf.models.rayleigh import Rayleigh
 
@@ -22,6 +24,8 @@ MODELS: dict[str, type[HysteresisModel]] = {
         CubicHc,
         Rayleigh,
         FrequencyHc,
+        Preisach,
+        JilesAtherton,
     )
 }
 

@@ -198,7 +198,27 @@ def ja_describing_function(amplitude, *, lambda_s, a, k, c, zeta, tol=_TOL, n_mi
     alpha = coupling(lambda_s=lambda_s, a=a, zeta=zeta)
     shape, (A, lam, a_, k_, c_, al) = _flat(amplitude, lambda_s, a, k, c, alpha)
     out = np.empty(A.size, dtype=complex)
-    _df_loop(np.abs(A), lam, a_, k_, c_, al, tol, n_min, _capacity(n_min), _T_OF_V, _W_OF_V, out)
+    args = (np.abs(A), lam, a_, k_, c_, al)
+    try:
+        _df_loop(*args, tol, n_min, _capacity(n_min), _T_OF_V, _W_OF_V, out)
+    except ZeroDivisionError:
+        # An extreme corner of the box (amplitudes a root finder probes decades away) can
+        # divide by zero in the compiled loop: those points get NaN, the others their N.
+        for i in range(A.size):
+            one = np.empty(1, dtype=complex)
+            try:
+                _df_loop(
+                    *(x[i : i + 1] for x in args),
+                    tol,
+                    n_min,
+                    _capacity(n_min),
+                    _T_OF_V,
+                    _W_OF_V,
+                    one,
+                )
+                out[i] = one[0]
+            except ZeroDivisionError:
+                out[i] = np.nan
     return out.reshape(shape)
 
 
