@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 
 from fitdf.chains import get_chain
+from fitdf.inference.api import DEFAULT_CHAIN
 from fitdf.models import get_model
 
 #: Permalloy-like amplitudes and frequencies, the size of one Appendix B table.
@@ -16,7 +17,7 @@ FREQUENCIES = (3.0, 6.0, 10.0)
 def synthetic_frame(
     model,
     values: dict,
-    chain="winding",
+    chain=DEFAULT_CHAIN,
     source_impedances=(600.0,),
     frequencies=FREQUENCIES,
     amplitudes=AMPLITUDES,

@@ -47,7 +47,11 @@ def test_least_squares_recovers_known_parameters(model):
     truth = {**values, **CHAIN}
     for name in result.problem.names:
         iv = result.intervals[name]
-        assert iv["p2.5"] <= truth[name] <= iv["p97.5"], (name, truth[name], iv)
+        # one noise draw: the truth within 3.29 standard errors (a 99.9 % interval), so only a
+        # real error fails; the 95 % coverage over many draws is a slow test
+        # (tests/test_recovery_independent.py)
+        half = 0.5 * (iv["p84"] - iv["p16"])
+        assert abs(result.values[name] - truth[name]) <= 3.29 * half, (name, truth[name], iv)
         assert np.isfinite(result.stderr[name])
     # noise of 0.005 in magnitude and 0.5 deg in phase: the fit must reach that level
     assert result.metrics["rms_magnitude"] < 0.008

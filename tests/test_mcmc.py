@@ -14,7 +14,9 @@ TRUE = {"k": 60.0, "c": 0.035, "m": 0.3, "r_winding": 100.0, "gain": 0.95}
 
 @pytest.fixture(scope="module")
 def problem():
-    frame = synthetic_frame("proportional_width", TRUE, source_impedances=(0.0, 600.0), seed=11)
+    frame = synthetic_frame(
+        "proportional_width", TRUE, chain="winding", source_impedances=(0.0, 600.0), seed=11
+    )
     return FitProblem(resolve_data(frame, policy="all"), "proportional_width", "winding")
 
 

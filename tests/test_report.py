@@ -326,6 +326,7 @@ def test_quick_run_reproduces_the_committed_rankings(tmp_path):
         assert _orders_agree(fresh["blocks"][key]["order_lsq"], rec["order_lsq"], rms), key
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not COMMITTED.exists(), reason="no committed reports/results.json")
 def test_quick_run_reproduces_committed_rankings_of_two_tables(tmp_path):
     """The fast (CI) version of the check above: the quick configuration on two tables."""

@@ -20,19 +20,33 @@ Every chain has ``name``, ``title``, ``params`` and the class methods ``predict`
 ``core_current`` and ``operating_point``; ``model_theta`` ``(p,)`` or ``(batch, p)`` and
 ``chain_theta`` ``(q,)`` or ``(batch, q)`` broadcast (MCMC walkers evaluate in one call).
 """
+
 from __future__ import annotations
 
 from fitdf.chains.base import R_MIN, MeasurementChain, OperatingPoint
 from fitdf.chains.current_solver import solve_current
 from fitdf.chains.direct import DirectChain
+from fitdf.chains.voltage import VoltageChain
 from fitdf.chains.winding import WindingChain
 from fitdf.errors import ModelError
 
-__all__ = ["MeasurementChain", "DirectChain", "WindingChain", "OperatingPoint", "CHAINS",
-           "get_chain", "chain_names", "solve_current", "R_MIN"]
+__all__ = [
+    "MeasurementChain",
+    "DirectChain",
+    "WindingChain",
+    "VoltageChain",
+    "OperatingPoint",
+    "CHAINS",
+    "get_chain",
+    "chain_names",
+    "solve_current",
+    "R_MIN",
+]
 
 #: Registered chains by name.
-CHAINS: dict[str, type[MeasurementChain]] = {c.name: c for c in (DirectChain, WindingChain)}
+CHAINS: dict[str, type[MeasurementChain]] = {
+    c.name: c for c in (DirectChain, WindingChain, VoltageChain)
+}
 
 
 def chain_names() -> list[str]:

@@ -9,6 +9,7 @@ Three entry points, each compiled for one float64 signature (``cache=True``):
 
 The method and its accuracy are described in :mod:`fitdf.chains.voltage`.
 """
+
 from __future__ import annotations
 
 import numba
@@ -17,25 +18,26 @@ import numpy as np
 __all__ = ["place_nodes", "half_periods", "half_period_wave", "N_OUT"]
 
 #: Columns of :func:`half_periods`' output: peak current, flux harmonics (sin, cos),
-#: current harmonics (sin, cos).
-N_OUT = 5
+#: number of steps.
+N_OUT = 4
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def place_nodes(u0, B0, weights, out):
-    """Nodes ``out[p]`` (``M`` values from ``u0[0]`` to ``u0[-1]``) for the branch ``B0[p]``.
+    """Nodes ``out[p]`` (``M`` values from ``u0[p, 0]`` to ``u0[p, -1]``) for the branch ``B0[p]``.
 
-    ``B0[p]`` is a coarse table of the branch at the normalised currents ``u0``. The nodes
-    equidistribute ``wx |du|/2 + wy |dB|/range + wk |d angle|/pi`` (``weights = (wx, wy,
-    wk)``) along it, the angle being that of the chords of the normalised curve and each
-    change of angle shared by the two cells next to it: the current range, the steep parts
-    (the flux swing of a saturated core) and the bends (kinks, knees) all get nodes.
+    ``B0[p]`` is a table of the branch at the (normalised) currents ``u0[p]``. The new
+    nodes equidistribute ``wx |du|/2 + wy |dB|/range + wk |sin(bend)|/2`` (``weights =
+    (wx, wy, wk)``) along it, the bend being the angle between consecutive chords of the
+    normalised curve, shared by the two cells next to it: the current range, the steep
+    parts (the flux swing of a saturated core) and the bends (kinks, knees) all get nodes.
     """
     P, M0 = B0.shape
     M = out.shape[1]
     wx, wy, wk = weights[0], weights[1], weights[2]
-    for p in numba.prange(P):
+    for p in range(P):
         b = B0[p]
+        u = u0[p]
         hb = np.empty(M0)
         m = b[0]
         for j in range(M0):
@@ -44,29 +46,34 @@ def place_nodes(u0, B0, weights, out):
             hb[j] = m
         rng = hb[M0 - 1] - hb[0]
         inv = 1.0 / rng if rng > 0 and np.isfinite(rng) else 0.0
-        ang = np.empty(M0 - 1)
+        tx = np.empty(M0 - 1)  # unit chords of the normalised curve
+        ty = np.empty(M0 - 1)
         for j in range(M0 - 1):
-            ang[j] = np.arctan2((hb[j + 1] - hb[j]) * inv, 0.5 * (u0[j + 1] - u0[j]))
+            dx = 0.5 * (u[j + 1] - u[j])
+            dy = (hb[j + 1] - hb[j]) * inv
+            ln = np.sqrt(dx * dx + dy * dy)
+            tx[j] = dx / ln if ln > 0 else 1.0
+            ty[j] = dy / ln if ln > 0 else 0.0
         S = np.empty(M0)
         S[0] = 0.0
         for j in range(M0 - 1):
-            d = wx * 0.5 * (u0[j + 1] - u0[j]) + wy * (hb[j + 1] - hb[j]) * inv
-            if j > 0:
-                d += wk * 0.5 * abs(ang[j] - ang[j - 1]) / np.pi
+            d = wx * 0.5 * (u[j + 1] - u[j]) + wy * (hb[j + 1] - hb[j]) * inv
+            if j > 0:  # bend: |sin| of the angle between chords (both at most 1)
+                d += wk * 0.25 * abs(tx[j - 1] * ty[j] - ty[j - 1] * tx[j])
             if j < M0 - 2:
-                d += wk * 0.5 * abs(ang[j + 1] - ang[j]) / np.pi
+                d += wk * 0.25 * abs(tx[j] * ty[j + 1] - ty[j] * tx[j + 1])
             S[j + 1] = S[j] + d
         total = S[M0 - 1]
         j = 0
-        out[p, 0] = u0[0]
+        out[p, 0] = u[0]
         for q in range(1, M - 1):
             target = total * q / (M - 1)
             while j < M0 - 2 and S[j + 1] < target:
                 j += 1
             d = S[j + 1] - S[j]
             t = (target - S[j]) / d if d > 0 else 0.0
-            out[p, q] = u0[j] + t * (u0[j + 1] - u0[j])
-        out[p, M - 1] = u0[M0 - 1]
+            out[p, q] = u[j] + t * (u[j + 1] - u[j])
+        out[p, M - 1] = u[M0 - 1]
 
 
 @numba.njit(cache=True)
@@ -77,8 +84,9 @@ def _refine(x, B, xr, Br):
     rises (a falling part becomes a flat, across which the current jumps). Every cell gets
     an interior node: where the two cells on either side are straight (slopes equal to
     ``1e-9`` of the table's slope scale) and their lines meet inside it, at that
-    intersection -- the exact kink of a piecewise-linear branch, wherever it falls --
-    otherwise at the chord's midpoint (no change).
+    intersection -- the exact kink of a piecewise-linear branch, wherever it falls --; on
+    smooth stretches at the chord's midpoint bent by the local curvature (the cubic
+    through four nodes on an even grid); otherwise at the chord's midpoint.
     """
     M = x.shape[0]
     hb = np.empty(M)
@@ -102,6 +110,7 @@ def _refine(x, B, xr, Br):
         Br[2 * j] = hb[j]
         xm = 0.5 * (x[j] + x[j + 1])
         bm = 0.5 * (hb[j] + hb[j + 1])
+        snapped = False
         if 2 <= j <= M - 4:
             sl = s[j - 1]
             sr = s[j + 1]
@@ -110,6 +119,17 @@ def _refine(x, B, xr, Br):
                 if x[j] < xs < x[j + 1]:
                     xm = xs
                     bm = min(max(hb[j] + sl * (xs - x[j]), hb[j]), hb[j + 1])
+                    snapped = True
+        if not snapped and 1 <= j <= M - 3:
+            # smooth stretch (consecutive slope changes of one sign, within a factor of 3):
+            # the middle bends by -h^2 B''/8, B'' averaged over the two sides -- on an even
+            # grid the cubic through the four nodes around the cell
+            d1 = s[j] - s[j - 1]
+            d2 = s[j + 1] - s[j]
+            if d1 * d2 > 0 and abs(d1) < 3.0 * abs(d2) and abs(d2) < 3.0 * abs(d1):
+                h = x[j + 1] - x[j]
+                b2 = d1 / (x[j + 1] - x[j - 1]) + d2 / (x[j + 2] - x[j])
+                bm = min(max(bm - 0.125 * h * h * b2, hb[j]), hb[j + 1])
         xr[2 * j + 1] = xm
         Br[2 * j + 1] = bm
     xr[2 * M - 2] = x[M - 1]
@@ -117,131 +137,365 @@ def _refine(x, B, xr, Br):
 
 
 @numba.njit(cache=True)
-def _integrate(x, B, V, R, w, phi0, n, wave_i, wave_l):
+def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
     """One rising half period of ``R i + w dlam/dtheta = V sin(theta)``, ``lam = B(i)``.
 
-    ``(x, B)``: the branch, non-decreasing, linear between nodes and flat beyond the last.
-    Starts at ``i = x[0]`` at ``theta = phi0`` and runs to ``phi0 + pi`` in ``n`` steps:
-    BDF2 (backward Euler first), each step's implicit equation
-    ``R i + c B(i) = rhs`` solved exactly on the table with a pointer that only moves
-    forward; once the current would fall (past its maximum) it is held.
+    ``(x, B)``: the branch, non-decreasing, linear between nodes and continued beyond the
+    last one along the last cell's line (a loop too small for the trajectory continues
+    smoothly; a saturated tip continues flat).
+    Starts at ``i = x[0]`` at ``theta = phi0`` and runs to ``phi0 + pi``: variable-step
+    BDF2 (trapezoidal first step), each step's implicit equation ``a i + c B(i) = rhs``
+    solved exactly on the table with a pointer that only moves forward; once the current
+    would fall (past its maximum) it is held. Steps are ``pi / n`` unless the state moves
+    by more than ``dsig`` along the branch (current over ``2 x[-1]`` plus flux over its
+    range) -- the sharp rise of the current into saturation -- where they shrink (down to
+    ``pi / (64 n)``; a genuine jump onto a flat cannot be resolved and is accepted).
 
-    Returns ``(i_max, ls, lc, cs, cc)``: the largest current reached -- including, when a
+    Returns ``(i_max, ls, lc, n_steps)``: the largest current reached -- including, when a
     step lands on a flat (zero inductance, the current jumps), the current ``V sin/R`` at
-    the phase where the flux reached the flat, found by extrapolating the flux over the
-    step -- and ``(2/pi) int lam sin``, ``(2/pi) int lam cos``, the same for ``i``, over
-    the half period (trapezoid rule), the full-period Fourier coefficients under half-wave
-    symmetry. ``wave_i``, ``wave_l`` (length ``n + 1``, or 0) receive the samples.
+    the phase where the flux reached the flat, extrapolated over the step -- then
+    ``(2/pi) int lam sin`` and ``(2/pi) int lam cos`` over the half period (trapezoid
+    rule): the full-period Fourier coefficients of the flux under half-wave symmetry. ``wave`` (``(K, 3)``, or ``(0, 3)``) receives ``theta, i, lam`` per step
+    (at most ``K - 1`` steps are recorded).
     """
     M = x.shape[0]
-    h = np.pi / n
-    rec = wave_i.shape[0] > 0
+    h0 = np.pi / n
+    h_min = h0 / 64.0
+    t_end = phi0 + np.pi
+    K = wave.shape[0]
+    i_scale = 2.0 * max(abs(x[0]), abs(x[M - 1]))
+    l_range = B[M - 1] - B[0]
+    inv_i = 1.0 / i_scale if i_scale > 0 else 0.0
+    inv_l = 1.0 / l_range if l_range > 0 else 0.0
+    dx_last = x[M - 1] - x[M - 2]
+    s_ext = (B[M - 1] - B[M - 2]) / dx_last if dx_last > 0 else 0.0
     i = x[0]
     lam = B[0]
     i_max = i
-    j = 0                # the current lies in cell [x[j], x[j + 1]] (j = M - 1: beyond)
-    lam_1 = lam          # flux one step back
-    s = np.sin(phi0)
-    c = np.cos(phi0)
-    ls = 0.5 * lam * s
-    lc = 0.5 * lam * c
-    cs = 0.5 * i * s
-    cc = 0.5 * i * c
-    if rec:
-        wave_i[0] = i
-        wave_l[0] = lam
-    ch = np.cos(h)
-    sh = np.sin(h)
-    for k in range(1, n + 1):
-        s_prev = s
-        if k % 64 == 0:   # phases by rotation, re-anchored against drift
-            s = np.sin(phi0 + k * h)
-            c = np.cos(phi0 + k * h)
+    j = 0  # the current lies in cell [x[j], x[j + 1]] (j = M - 1: beyond)
+    lam_1 = lam  # flux one step back
+    h_1 = 0.0  # previous step (0: none yet)
+    th = phi0
+    s = np.sin(th)
+    c = np.cos(th)
+    ls = 0.0
+    lc = 0.0
+    if K > 0:
+        wave[0, 0] = th
+        wave[0, 1] = i
+        wave[0, 2] = lam
+    steps = 0
+    h_try = h0
+    ch0 = np.cos(h0)
+    sh0 = np.sin(h0)
+    w_h0 = w / h0
+    coef0 = 1.5 * w_h0
+    while th < t_end:
+        h = h_try
+        if th + h >= t_end - 1e-9 * h0:
+            h = t_end - th
+            th_new = t_end
         else:
-            s, c = s * ch + c * sh, c * ch - s * sh
-        v = V * s
-        if k == 1:
+            th_new = th + h
+        if h == h0:  # the regular step: rotate the phase
+            s_new = s * ch0 + c * sh0
+            c_new = c * ch0 - s * sh0
+        else:
+            s_new = np.sin(th_new)
+            c_new = np.cos(th_new)
+        v = V * s_new
+        a = R
+        if h_1 == 0.0:  # trapezoidal first step (second order from the turning point)
+            a = 0.5 * R
             coef = w / h
-            rhs = v + coef * lam
-        else:
-            coef = 1.5 * w / h
-            rhs = v + (w / h) * (2.0 * lam - 0.5 * lam_1)
-        lam_1 = lam
-        lam_prev = lam
-        i_prev = i
-        if R * i + coef * lam < rhs:    # else: the current would fall; hold it
-            while j < M - 1 and R * x[j + 1] + coef * B[j + 1] < rhs:
-                j += 1
-            if j >= M - 1:
-                i = (rhs - coef * B[M - 1]) / R
-                lam = B[M - 1]
-                flat = True
+            rhs = coef * lam + 0.5 * (v + V * s) - 0.5 * R * i
+        elif h == h0 and h_1 == h0:  # BDF2
+            coef = coef0
+            rhs = v + w_h0 * (2.0 * lam - 0.5 * lam_1)
+        else:  # variable-step BDF2
+            r = h / h_1
+            coef = w * (1.0 + 2.0 * r) / ((1.0 + r) * h)
+            rhs = v + (w / h) * ((1.0 + r) * lam - r * r / (1.0 + r) * lam_1)
+        j_new = j
+        i_new = i
+        lam_new = lam
+        jump = False
+        if a * i + coef * lam < rhs:  # else: the current would fall; hold it
+            while j_new < M - 1 and a * x[j_new + 1] + coef * B[j_new + 1] < rhs:
+                j_new += 1
+            if j_new >= M - 1:  # beyond the tip: the last cell's line
+                i_new = x[M - 1] + (rhs - a * x[M - 1] - coef * B[M - 1]) / (a + coef * s_ext)
+                lam_new = B[M - 1] + s_ext * (i_new - x[M - 1])
+                flat = s_ext == 0.0
             else:
-                f0 = R * x[j] + coef * B[j]
-                f1 = R * x[j + 1] + coef * B[j + 1]
-                t = (rhs - f0) / (f1 - f0)
-                t = min(max(t, 0.0), 1.0)
-                i_new = x[j] + t * (x[j + 1] - x[j])
-                if i_new > i:
-                    i = i_new
-                lam = B[j] + t * (B[j + 1] - B[j])
-                flat = B[j + 1] == B[j]
-            if flat and lam > lam_prev:
-                # The flux reached a flat inside this step: there the inductance vanishes
-                # and the current jumps to V sin/R. Phase of arrival from the flux rate.
-                e_prev = V * s_prev - R * i_prev
-                tau = 1.0
-                if e_prev > 0:
-                    tau = min((lam - lam_prev) * w / (e_prev * h), 1.0)
-                th = phi0 + (k - 1 + tau) * h
-                i_jump = V * np.sin(th) / R
-                if j < M - 1:       # not beyond the flat's end (none if it reaches the table's)
-                    q = j
-                    while q < M - 1 and B[q + 1] == B[q]:
-                        q += 1
-                    if q < M - 1:
-                        i_jump = min(i_jump, x[q])
-                if i_jump > i_max:
-                    i_max = i_jump
+                f0 = a * x[j_new] + coef * B[j_new]
+                f1 = a * x[j_new + 1] + coef * B[j_new + 1]
+                t = min(max((rhs - f0) / (f1 - f0), 0.0), 1.0)
+                i_new = max(x[j_new] + t * (x[j_new + 1] - x[j_new]), i)
+                lam_new = B[j_new] + t * (B[j_new + 1] - B[j_new])
+                flat = B[j_new + 1] == B[j_new]
+            if flat and R * i_new > v:
+                # on a flat the EMF is 0 (no flux change), never negative: BDF2's
+                # difference quotient overshoots after the kink where the flux stops
+                i_new = max(v / R, i)
+            jump = flat and lam_new > lam
+        move = (i_new - i) * inv_i + (lam_new - lam) * inv_l
+        if move > dsig and h > h_min and not jump:
+            h_try = max(h * max(0.2, 0.8 * dsig / move), h_min)
+            continue  # reject; the pointer j is unchanged
+        if jump:
+            # The flux reached a flat inside this step: there the inductance vanishes
+            # and the current jumps to V sin/R. Phase of arrival from the flux rate.
+            e_prev = V * s - R * i
+            tau = 1.0
+            if e_prev > 0:
+                tau = min((lam_new - lam) * w / (e_prev * h), 1.0)
+            i_jump = V * np.sin(th + tau * h) / R
+            if j_new < M - 1:  # not beyond the flat's end (none if it reaches the table's)
+                q = j_new
+                while q < M - 1 and B[q + 1] == B[q]:
+                    q += 1
+                if q < M - 1:
+                    i_jump = min(i_jump, x[q])
+            if i_jump > i_max:
+                i_max = i_jump
+        # accept
+        hh = 0.5 * (th_new - th)
+        ls += hh * (lam * s + lam_new * s_new)
+        lc += hh * (lam * c + lam_new * c_new)
+        h_1 = h
+        lam_1 = lam
+        th = th_new
+        s = s_new
+        c = c_new
+        i = i_new
+        lam = lam_new
+        j = j_new
         if i > i_max:
             i_max = i
-        wt = 0.5 if k == n else 1.0
-        ls += wt * lam * s
-        lc += wt * lam * c
-        cs += wt * i * s
-        cc += wt * i * c
-        if rec:
-            wave_i[k] = i
-            wave_l[k] = lam
-    f = 2.0 * h / np.pi
-    return i_max, ls * f, lc * f, cs * f, cc * f
+        steps += 1
+        if steps < K:
+            wave[steps, 0] = th
+            wave[steps, 1] = i
+            wave[steps, 2] = lam
+        h_try = h0 if move <= 0.5 * dsig else min(h0, 2.0 * h_1, h_1 * 0.8 * dsig / move)
+        if h_try < h_min:
+            h_try = h_min
+    f = 2.0 / np.pi
+    return i_max, ls * f, lc * f, float(steps)
 
 
-@numba.njit(cache=True, parallel=True)
-def half_periods(x, B, V, R, w, phi0, n, out):
-    """Rising half periods of the rows of the branch tables ``x``, ``B`` (``(P, M)``).
-
-    Per row: amplitude ``V``, resistance ``R``, angular frequency ``w`` and starting phase
-    ``phi0``; ``n`` steps. ``out[p]`` receives the ``N_OUT`` values of :func:`_integrate`
-    (the table is first made monotone and refined, :func:`_refine`).
-    """
-    P, M = x.shape
-    empty = np.empty(0)
-    for p in numba.prange(P):
-        xr = np.empty(2 * M - 1)
-        Br = np.empty(2 * M - 1)
+@numba.njit(cache=True)
+def _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, start, stop):
+    M = x.shape[1]
+    empty = np.empty((0, 3))
+    xr = np.empty(2 * M - 1)
+    Br = np.empty(2 * M - 1)
+    for p in range(start, stop):
         _refine(x[p], B[p], xr, Br)
-        r = _integrate(xr, Br, V[p], R[p], w[p], phi0[p], n, empty, empty)
+        r = _integrate(xr, Br, V[p], R[p], w[p], phi0[p], n, dsig, empty)
         for q in range(N_OUT):
             out[p, q] = r[q]
 
 
+@numba.njit(cache=True, parallel=True)
+def _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, chunks):
+    P = x.shape[0]
+    size = (P + chunks - 1) // chunks
+    for c in numba.prange(chunks):
+        _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, c * size, min(P, (c + 1) * size))
+
+
+#: Below this many rows times steps a call runs on one thread even when more are allowed
+#: (a parallel region costs more than it saves).
+PARALLEL_WORK = 100_000
+
+
+def half_periods(x, B, V, R, w, phi0, n, dsig, out, threads=1):
+    """Rising half periods of the rows of the branch tables ``x``, ``B`` (``(P, M)``).
+
+    Per row: amplitude ``V``, resistance ``R``, angular frequency ``w`` and starting phase
+    ``phi0``; ``n`` steps, refined where the state moves more than ``dsig``. ``out[p]``
+    receives the ``N_OUT`` values of :func:`_integrate` (the table is first made monotone
+    and refined, :func:`_refine`). With ``threads > 1`` large calls are split over that
+    many of numba's threads (on a machine whose cores are busy this is slower: measured in
+    ``benchmarks/bench_voltage.py``).
+    """
+    P = x.shape[0]
+    threads = min(int(threads), numba.get_num_threads())
+    if threads > 1 and P * n >= PARALLEL_WORK:
+        _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, min(threads, P))
+    else:
+        _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, 0, P)
+
+
 @numba.njit(cache=True)
-def half_period_wave(x, B, V, R, w, phi0, n, wave_i, wave_l):
-    """One row of :func:`half_periods`, recording current and flux (``n + 1`` samples each)
-    into ``wave_i`` and ``wave_l``; returns the values of :func:`_integrate`."""
+def half_period_wave(x, B, V, R, w, phi0, n, dsig, wave):
+    """One row of :func:`half_periods`, recording ``theta, i, lam`` of each step into the
+    rows of ``wave`` (``(K, 3)``); returns the values of :func:`_integrate`."""
     M = x.shape[0]
     xr = np.empty(2 * M - 1)
     Br = np.empty(2 * M - 1)
     _refine(x, B, xr, Br)
-    return _integrate(xr, Br, V, R, w, phi0, n, wave_i, wave_l)
+    return _integrate(xr, Br, V, R, w, phi0, n, dsig, wave)
+
+
+# ---------------------------------------------------------------- root search, per point
+# Slots of the search state: the last two evaluations (A1, A2) and the two newest on
+# each side of the root (L: G > 0, H: G <= 0).
+_A1, _A2, _L1, _L2, _H1, _H2 = 0, 1, 2, 3, 4, 5
+
+
+@numba.njit(cache=True)
+def _pair(X, G, D, p, i1, i2):
+    """Secant root, slope and linear DF at the root of the slots ``i1`` (newer), ``i2``."""
+    x1, x2 = X[p, i1], X[p, i2]
+    if not (np.isfinite(x1) and np.isfinite(x2)) or x1 == x2:
+        return np.nan, np.nan, complex(np.nan, np.nan)
+    s = (G[p, i1] - G[p, i2]) / (x1 - x2)
+    if not np.isfinite(s) or s == 0.0:
+        return np.nan, np.nan, complex(np.nan, np.nan)
+    r = x1 - G[p, i1] / s
+    d = D[p, i1] + (D[p, i1] - D[p, i2]) / (x1 - x2) * (r - x1)
+    return r, s, d
+
+
+@numba.njit(cache=True)
+def secant_update(act, xs, gs, ds, it, X, G, D, F, C, done, tol, max_step, df_tol, confirm):
+    """One step of the root search of ``G(I_p)`` for the points ``act`` (see
+    :func:`fitdf.chains.voltage._search`, which documents the rules).
+
+    ``xs, gs, ds``: the new evaluations (``I``, ``G``, DF) of the points ``act``.
+    ``X, G, D`` (``(m, 6)``): the slots. ``F`` (``(m, 9)``): ``top = V/R``, Illinois values
+    ``g_lo, g_hi``, last side, bracket width, next trial, root, the previous stage's slope
+    of ``G`` (NaN: none), the slope followed. ``C`` (``(m, 3)`` complex): DF at the root,
+    DF slope, the previous stage's DF slope (NaN: none). ``done`` is set where converged.
+    ``confirm``: whether the last two evaluations' slope must be confirmed.
+    """
+    for k in range(act.shape[0]):
+        p = act[k]
+        x, g, d = xs[k], gs[k], ds[k]
+        top = F[p, 0]
+        slope0 = F[p, 7]
+        dslope0 = C[p, 2]
+        # push the slots
+        X[p, _A2], G[p, _A2], D[p, _A2] = X[p, _A1], G[p, _A1], D[p, _A1]
+        X[p, _A1], G[p, _A1], D[p, _A1] = x, g, d
+        side = _L1 if g > 0 else _H1
+        X[p, side + 1], G[p, side + 1], D[p, side + 1] = X[p, side], G[p, side], D[p, side]
+        X[p, side], G[p, side], D[p, side] = x, g, d
+        # Illinois: the value of an end kept twice in a row is halved
+        if g > 0:
+            if F[p, 3] == 1.0:
+                F[p, 2] *= 0.5
+            F[p, 1] = g
+            F[p, 3] = 1.0
+        else:
+            if F[p, 3] == -1.0:
+                F[p, 1] *= 0.5
+            F[p, 2] = g
+            F[p, 3] = -1.0
+        if not np.isfinite(g):
+            done[p] = True
+            F[p, 6] = np.nan
+            C[p, 0] = complex(np.nan, np.nan)
+            continue
+        lo = X[p, _L1] if np.isfinite(X[p, _L1]) else 0.0
+        hi = X[p, _H1] if np.isfinite(X[p, _H1]) else top
+        if it == 0:
+            s0 = slope0 if np.isfinite(slope0) else -2.0
+            step = min(max(g / s0, -max_step * x), max_step * x)
+            rA, sA = x - step, s0
+            dA = d + (dslope0 * (rA - x) if np.isfinite(dslope0.real) else 0.0)
+        else:
+            rA, sA, dA = _pair(X, G, D, p, _A1, _A2)
+        rL, sL, dL = _pair(X, G, D, p, _L1, _L2)
+        rH, sH, dH = _pair(X, G, D, p, _H1, _H2)
+        jump = False
+        confirmed = False
+        for sr in (sL, sH, slope0):
+            if np.isfinite(sr) and np.isfinite(sA):
+                if sr / sA > 0 and abs(np.log(sr / sA)) <= np.log(2.0):
+                    confirmed = True
+                else:
+                    jump = True
+        inA = np.isfinite(rA) and lo < rA < hi
+        inL = np.isfinite(rL) and lo < rL < hi
+        inH = np.isfinite(rH) and lo < rH < hi
+        use = -1
+        if inA and (it == 0 or not jump):
+            use = _A1
+        elif inL and (not inH or abs(G[p, _L1]) <= abs(G[p, _H1])):
+            use = _L1
+        elif inH:
+            use = _H1
+        r, sr_, dr = np.nan, np.nan, complex(np.nan, np.nan)
+        if use == _A1:
+            r, sr_, dr = rA, sA, dA
+        elif use == _L1:
+            r, sr_, dr = rL, sL, dL
+        elif use == _H1:
+            r, sr_, dr = rH, sH, dH
+        conv = False
+        if use >= 0:
+            x1, d1, x2 = X[p, use], D[p, use], X[p, use + 1]
+            close = abs(r - x1) <= tol * x1 and abs(dr - d1) <= df_tol
+            if it == 0:
+                # one evaluation: only an exact hit (slopes from a coarser stage can be off
+                # by 10x where the DF is sensitive, e.g. at the edge of a dead zone)
+                conv = False
+            else:
+                conv = (
+                    close and abs(x1 - x2) <= 0.05 * x1 and (use != _A1 or confirmed or not confirm)
+                )
+            F[p, 8] = sr_
+            if np.isfinite(x2) and x1 != x2:
+                C[p, 1] = (D[p, use] - D[p, use + 1]) / (x1 - x2)
+        both = np.isfinite(X[p, _L1]) and np.isfinite(X[p, _H1])
+        narrow = hi - lo <= 0.125 * tol * hi
+        if both and hi - lo <= tol * hi and abs(D[p, _H1] - D[p, _L1]) <= 2.0 * df_tol:
+            narrow = True
+        mid = 0.5 * (lo + hi)
+        if hi > 4.0 * lo:
+            mid = np.sqrt(lo * hi) if lo > 0 else 0.25 * min(hi, x)
+        if g == 0.0:
+            done[p] = True
+            F[p, 6] = x
+            C[p, 0] = d
+            continue
+        if conv:
+            done[p] = True
+            F[p, 6] = r
+            C[p, 0] = dr
+            continue
+        if narrow:
+            rn = min(max(r, lo), hi) if use >= 0 else mid
+            dn = d
+            if both:
+                dn = D[p, _L1] + (rn - lo) / (hi - lo) * (D[p, _H1] - D[p, _L1])
+            done[p] = True
+            F[p, 6] = rn
+            C[p, 0] = dn
+            continue
+        # next trial: the root followed, unless the bracket stalls (bisect every third step
+        # if it has not halved) or a side's extrapolation leaves the bracket (bisect);
+        # else regula falsi (Illinois) or (log-)bisection
+        stalled = False
+        if it % 3 == 2:
+            stalled = hi - lo > 0.5 * F[p, 4]
+            F[p, 4] = hi - lo
+        glo, ghi = F[p, 1], F[p, 2]
+        if use >= 0 and not stalled:
+            nxt = r
+            if not (np.isfinite(X[p, _L1]) and np.isfinite(X[p, _H1])):
+                # no bracket yet: at most max_step (relative) per step
+                nxt = min(max(nxt, x * (1.0 - max_step)), x * (1.0 + max_step))
+        elif stalled or np.isfinite(rL) or np.isfinite(rH):
+            nxt = mid
+        else:
+            nxt = mid
+            if np.isfinite(X[p, _L1]) and np.isfinite(X[p, _H1]) and hi <= 4.0 * lo and ghi != glo:
+                fal = (lo * ghi - hi * glo) / (ghi - glo)
+                if lo < fal < hi:
+                    nxt = fal
+        F[p, 5] = nxt

@@ -18,7 +18,7 @@ from fitdf.inference.problem import FitProblem
 __all__ = ["fit", "resolve_data", "resolve_geometry", "METHODS", "DEFAULT_CHAIN"]
 
 #: The chain of every fit unless another is asked for: the exact voltage-driven circuit.
-DEFAULT_CHAIN = "winding"
+DEFAULT_CHAIN = "voltage"
 
 METHODS = ("lsq", "mcmc")
 

@@ -23,6 +23,12 @@ from fitdf.inference.results import FitResult, residual_table
 __all__ = ["fit_lsq"]
 
 _Z95 = 1.959963984540054
+#: Relative finite-difference step of the Jacobian (scipy's ``diff_step``). The exact
+#: chain is a discretised steady state: its DF moves in steps of ~1e-6 as table nodes
+#: shift with the parameters, so differences over the default ~1e-8 step measure that
+#: jitter, not the slope. 1e-4 (in log10 units for log parameters) is far above it and
+#: far below any curvature that matters.
+DIFF_STEP = 1e-4
 
 
 def _screen(problem: FitProblem, rng, n_screen: int, n_starts: int):
@@ -48,7 +54,9 @@ def _polish(problem: FitProblem, start, max_nfev: int):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # lmfit/scipy numerical chatter; outcome is checked below
-        out = lmfit.minimize(residual, params, method="least_squares", max_nfev=max_nfev)
+        out = lmfit.minimize(
+            residual, params, method="least_squares", max_nfev=max_nfev, diff_step=DIFF_STEP
+        )
     x = np.array([out.params[f"p{i}"].value for i in range(problem.ndim)])
     return out, x
 

@@ -36,7 +36,17 @@ from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, PosteriorResult, residual_table
 
-__all__ = ["fit_mcmc", "default_moves", "LogPosterior", "NOISE_BOUNDS"]
+__all__ = [
+    "fit_mcmc",
+    "default_moves",
+    "LogPosterior",
+    "NOISE_BOUNDS",
+    "chain_diagnostics",
+    "autocorr_time",
+    "is_converged",
+    "RHAT_MAX",
+    "MIN_STEPS_OVER_TAU",
+]
 
 
 def default_moves():
@@ -96,23 +106,53 @@ def _initial_ball(problem, lsq: FitResult, n_walkers, rng, bounds):
     return np.clip(p0, lo + 1e-9 * width, hi - 1e-9 * width)
 
 
+#: R-hat at or above this is reported as not converged. Rank-normalised R-hat < 1.01 is the modern
+#: target; walkers of one ensemble are not independent, so 1.05 is the threshold here.
+RHAT_MAX = 1.05
+#: The chain must be at least this many integrated autocorrelation times long.
+MIN_STEPS_OVER_TAU = 50
+
+
+def _as_arviz(chain, names) -> dict:
+    """An emcee array ``(draw, walker, parameter)`` as ArviZ variables ``(chain, draw)``:
+    walkers become ArviZ chains."""
+    return {n: np.swapaxes(chain[..., i], 0, 1) for i, n in enumerate(names)}
+
+
+def autocorr_time(chain) -> np.ndarray:
+    """Integrated autocorrelation time per parameter of an emcee array ``(draw, walker, parameter)``
+    (emcee's estimator, walkers averaged, no length check)."""
+    return emcee.autocorr.integrated_time(chain, tol=0)
+
+
+def chain_diagnostics(samples, names) -> dict:
+    """Rank-normalised R-hat and bulk ESS per parameter (ArviZ) of an emcee array
+    ``(draw, walker, parameter)``, walkers taken as chains."""
+    full = az.from_dict(posterior=_as_arviz(samples, names))
+    rhat = az.rhat(full)
+    ess = az.ess(full)
+    return {
+        "rhat": {n: float(rhat[n]) for n in names},
+        "ess_bulk": {n: float(ess[n]) for n in names},
+    }
+
+
+def is_converged(steps_over_tau, rhat) -> bool:
+    """The convergence rule: at least 50 autocorrelation times and every R-hat below 1.05."""
+    return bool(steps_over_tau >= MIN_STEPS_OVER_TAU and max(rhat.values()) < RHAT_MAX)
+
+
 def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
     """R-hat and bulk ESS on the whole post-burn chain; PSIS-LOO and WAIC on a subsample.
 
     ``post_burn`` and ``loo_draws`` are emcee arrays ``(draw, walker, parameter)``; ArviZ
     wants ``(chain, draw)``, so walkers become ArviZ chains.
     """
-
-    def as_posterior(c):
-        return {n: np.swapaxes(c[..., i], 0, 1) for i, n in enumerate(names)}  # (chain, draw)
-
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        full = az.from_dict(posterior=as_posterior(post_burn))
-        rhat = az.rhat(full)
-        ess = az.ess(full)
+        diag = chain_diagnostics(post_burn, names)
         idata = az.from_dict(
-            posterior=as_posterior(loo_draws), log_likelihood={"df": np.swapaxes(loglik, 0, 1)}
+            posterior=_as_arviz(loo_draws, names), log_likelihood={"df": np.swapaxes(loglik, 0, 1)}
         )
         loo = az.loo(idata, pointwise=True)
         waic = az.waic(idata)
@@ -126,8 +166,7 @@ def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
     )
     pareto_k = np.asarray(loo.pareto_k)
     return {
-        "rhat": {n: float(rhat[n]) for n in names},
-        "ess_bulk": {n: float(ess[n]) for n in names},
+        **diag,
         "elpd_loo": float(loo.elpd_loo),
         "elpd_loo_se": float(loo.se),
         "p_loo": float(loo.p_loo),
@@ -177,12 +216,12 @@ def fit_mcmc(
     sampler.random_state = np.random.RandomState(seed).get_state()
     max_steps = max(n_steps, max_steps or n_steps)
     state = sampler.run_mcmc(p0, n_steps, progress=progress)
-    tau = sampler.get_autocorr_time(tol=0)
-    while sampler.iteration < max_steps and sampler.iteration < 50 * np.nanmax(tau):
+    tau = autocorr_time(sampler.get_chain())
+    while sampler.iteration < max_steps and sampler.iteration < MIN_STEPS_OVER_TAU * np.nanmax(tau):
         state = sampler.run_mcmc(
             state, min(check_every, max_steps - sampler.iteration), progress=progress
         )
-        tau = sampler.get_autocorr_time(tol=0)
+        tau = autocorr_time(sampler.get_chain())
     n_steps = sampler.iteration
 
     tau_max = float(np.nanmax(tau))
@@ -211,17 +250,15 @@ def fit_mcmc(
             "n_draws": int(flat.shape[0]),
         }
     )
-    # Rank-normalised R-hat < 1.01 is the modern target; walkers of one ensemble are not independent,
-    # so 1.05 is used as the warning threshold, together with the 50 tau rule.
-    diag["converged"] = bool(diag["steps_over_tau"] >= 50 and max(diag["rhat"].values()) < 1.05)
+    diag["converged"] = is_converged(diag["steps_over_tau"], diag["rhat"])
 
     warns = []
-    if diag["steps_over_tau"] < 50:
+    if diag["steps_over_tau"] < MIN_STEPS_OVER_TAU:
         warns.append(
             f"chain of {n_steps} steps is shorter than 50 autocorrelation times "
             f"(max tau {tau_max:.0f}); run more --steps"
         )
-    if max(diag["rhat"].values()) >= 1.05:
+    if max(diag["rhat"].values()) >= RHAT_MAX:
         worst = max(diag["rhat"], key=diag["rhat"].get)
         warns.append(f"R-hat {diag['rhat'][worst]:.3f} for {worst} (>= 1.05)")
     if not 0.1 <= diag["acceptance_mean"] <= 0.9:

@@ -108,7 +108,10 @@ class CoreElement:
     model : HysteresisModel subclass
     theta : dict
         The law's parameter values.
-    chain : {"winding", "direct"}
+    chain : {"voltage", "winding", "direct"}
+        ``voltage`` and ``winding`` step the same circuit ``v = R i + d lambda/dt``; they
+        differ only in the DF :meth:`describing_function` reports (exact or
+        sinusoidal-current).
     resistance : float
         Total series resistance ``R_source + r_winding`` (ohm; winding chain).
     gain : float
@@ -146,11 +149,11 @@ class CoreElement:
             p.name: float(values.get(p.name, gain if p.name == "gain" else p.default))
             for p in result.problem.chain.params
         }
-        if chain == "winding":
+        if chain in ("winding", "voltage"):  # the same circuit in time; the chain sets the DF
             return cls(
                 model,
                 theta,
-                "winding",
+                chain,
                 resistance=float(source_impedance) + float(values["r_winding"]),
                 gain=gain,
                 source_impedance=float(source_impedance),
@@ -185,7 +188,7 @@ class CoreElement:
         return out.reshape(A.shape)
 
     def start(self, batch, dt):
-        if self.chain == "winding":
+        if self.chain in ("winding", "voltage"):
             if not self.resistance > 0:
                 raise OptionError("the winding operator needs a positive series resistance")
             return _WindingRunner(self, batch, dt)
