@@ -51,7 +51,14 @@ __all__ = [
 
 
 _ROWS = {"B.1": 37, "B.2": 30, "B.3": 36, "B.4": 63, "B.5": 89, "permalloy": 73, "deltamax": 119}
-_MODEL_COST = {"cubic_hc": 4.0, "rayleigh": 2.5, "constant_width": 2.0, "frequency_hc": 1.5}
+_MODEL_COST = {
+    "jiles_atherton": 12.0,
+    "preisach": 6.0,
+    "cubic_hc": 4.0,
+    "rayleigh": 2.5,
+    "constant_width": 2.0,
+    "frequency_hc": 1.5,
+}
 
 
 def expected_cost(data: str, model: str) -> float:
