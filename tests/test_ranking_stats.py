@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from fitdf.errors import OptionError
 from fitdf.inference.mcmc import _arviz_diagnostics
 from fitdf.inference.metrics import information_criteria, phase_difference_deg, residual_metrics
 from fitdf.inference.ranking import best_by_aicc, ranking_table
@@ -215,6 +216,9 @@ def test_ranking_order_rank_column_and_best_by_aicc():
     assert list(ranking_table(results, rank_by="aicc")["model"]) == ["b", "d", "c", "a"]
     assert best_by_aicc(results).model == "b"
     assert list(t.columns[:4]) == ["rank", "model", "chain", "method"]
+    assert (t["n_params"] == 3).all() and (t["n_points"] == 20).all()
+    with pytest.raises(OptionError, match="choose one of rms_complex, rms_magnitude, "):
+        ranking_table(results, rank_by="nope")
 
 
 def test_aicc_overturns_the_rms_order_for_many_parameters_on_few_points():
@@ -286,7 +290,7 @@ def direct_idata(shift, seed):
     )
 
 
-SHIFTS = {"near": (0.0, 1), "close": (0.05, 2), "far": (1.2, 3)}
+SHIFTS = {"near": (0.0, 1), "close": (0.05, 2), "far": (0.6, 3)}
 
 
 @pytest.fixture(scope="module")
@@ -305,9 +309,45 @@ def test_loo_and_waic_match_arviz(mcmc_results):
         assert d["p_loo"] == pytest.approx(loo.p_loo, rel=1e-12)
         assert d["waic"] == pytest.approx(-2 * waic.elpd_waic, rel=1e-12)
         assert d["waic_se"] == pytest.approx(2 * waic.se, rel=1e-12)
+        assert d["elpd_waic"] == pytest.approx(waic.elpd_waic, rel=1e-12)
+        assert d["elpd_waic_se"] == pytest.approx(waic.se, rel=1e-12)
         np.testing.assert_allclose(d["pointwise_elpd_loo"], np.asarray(loo.loo_i), rtol=1e-12)
         assert d["pareto_k_max"] == pytest.approx(float(np.max(loo.pareto_k)))
         assert d["n_pareto_k_bad"] == 0
+
+
+def test_influential_rows_and_arviz_warnings_are_reported():
+    # 10 observations, the last an outlier a normal model with sigma = 0.4 cannot absorb; 60
+    # walkers x 50 draws, so ArviZ also warns that the layout has more chains than draws
+    rng = np.random.default_rng(0)
+    y = np.append(rng.normal(0.0, 1.0, 9), 4.5)
+    mu = y.mean() + rng.normal(0.0, 0.1, (50, 60, 1))
+    loglik = stats.norm.logpdf(y, loc=mu, scale=0.4)
+    diag, caught = _arviz_diagnostics(mu, ["mu"], mu, loglik)
+    with pytest.warns(UserWarning) as record:
+        idata = az.from_dict(
+            posterior={"mu": mu[..., 0].T}, log_likelihood={"y": np.swapaxes(loglik, 0, 1)}
+        )
+        loo = az.loo(idata, pointwise=True)
+        az.waic(idata)
+    k = np.asarray(loo.pareto_k)
+    assert diag["pareto_k_max"] == pytest.approx(k.max()) and 0.7 < k.max() < 1.7
+    assert diag["n_pareto_k_bad"] == np.sum(k > 0.7) == 1
+    # ArviZ's own warnings, first line each, without the expected layout complaint
+    messages = [str(w.message) for w in record]
+    assert any("More chains" in m for m in messages)
+    expected = sorted({m.split("\n")[0] for m in messages if "More chains" not in m})
+    assert caught == expected and len(caught) == 2
+    assert caught[0].startswith("Estimated shape parameter of Pareto distribution")
+    assert caught[1].endswith("This could be indication of WAIC starting to fail. ")
+
+
+def test_pointwise_loo_whatever_the_arviz_defaults(mcmc_results):
+    # a user's ArviZ configuration must not change what fit_mcmc computes
+    mu, loglik = normal_model_draws(*SHIFTS["near"])
+    with az.rc_context({"stats.ic_pointwise": False}):
+        diag, _ = _arviz_diagnostics(mu, ["mu"], mu, loglik)
+    assert diag == mcmc_results[0].diagnostics
 
 
 def test_loo_columns_and_ties_match_arviz_compare(mcmc_results):
@@ -336,11 +376,40 @@ def test_loo_columns_and_ties_match_arviz_compare(mcmc_results):
             tie = abs(pair["elpd_diff"]) < 2 * pair["dse"]
             assert (f"{b}/winding" in t.loc[a, "indistinguishable_from"]) == tie, (a, b, pair)
             assert (f"{a}/winding" in t.loc[b, "indistinguishable_from"]) == tie, (a, b, pair)
-    # the constructed case has both outcomes: a shift of 0.05 is a tie, one of 1.2 is not
+    # the constructed case has both outcomes: a shift of 0.05 is a tie, one of 0.6 is not, by a
+    # margin a threshold of 3 dse (or 20) would reverse
     assert t.loc["near", "indistinguishable_from"] == "close/winding"
     assert t.loc["far", "indistinguishable_from"] == ""
     far = t.loc["far"]
-    assert 2 * far["elpd_loo_dse"] < far["elpd_loo_diff"] < 20 * far["elpd_loo_dse"]
+    assert 2 * far["elpd_loo_dse"] < far["elpd_loo_diff"] < 3 * far["elpd_loo_dse"]
+
+
+def test_ranking_does_not_depend_on_arviz_defaults(mcmc_results):
+    table = ranking_table(mcmc_results)
+    other = {
+        "stats.ic_compare_method": "BB-pseudo-BMA",
+        "stats.ic_scale": "deviance",
+        "stats.information_criterion": "waic",
+    }
+    with az.rc_context(other):
+        again = ranking_table(mcmc_results)
+    assert again.equals(table)
+
+
+def test_mcmc_rows_without_comparable_loo(mcmc_results):
+    # no pointwise elpd (e.g. a result read back without diagnostics): no LOO tie, no LOO columns
+    bare = stand_in("bare", 0.0, method="mcmc")
+    t = by_model(ranking_table([*mcmc_results, bare]))
+    assert t.loc["bare", "indistinguishable_from"] == ""
+    assert np.isnan(t.loc["bare", "loo_weight"]) and t.loc["near", "loo_weight"] > 0
+    assert t.loc["near", "indistinguishable_from"] == "close/winding"
+    # pointwise elpd on other rows: not comparable, so no tie and no ArviZ comparison at all
+    other = mcmc_stand_in("other_rows", *SHIFTS["near"])
+    other.diagnostics["pointwise_elpd_loo"] = other.diagnostics["pointwise_elpd_loo"][:-1]
+    t = by_model(ranking_table([*mcmc_results, other]))
+    assert t.loc["other_rows", "indistinguishable_from"] == ""
+    assert "other_rows" not in t.loc["near", "indistinguishable_from"]
+    assert t[["elpd_loo_diff", "elpd_loo_dse", "loo_weight"]].isna().all().all()
 
 
 def test_loo_columns_are_empty_on_least_squares_rows(mcmc_results):

@@ -136,8 +136,9 @@ def exact_half_period(brk, slopes, I, V, R, w):
             continue
         ws = w * s
         t0, den = t, R * R + ws * ws
+        C = i - V * (R * np.sin(t) - ws * np.cos(t)) / den
 
-        def cur(tt, t0=t0, ws=ws, den=den, C=i - V * (R * np.sin(t) - ws * np.cos(t)) / den):
+        def cur(tt, t0=t0, ws=ws, den=den, C=C):
             return V * (R * np.sin(tt) - ws * np.cos(tt)) / den + C * np.exp(-R * (tt - t0) / ws)
 
         def emf(tt, cur=cur):
@@ -180,8 +181,11 @@ def reference_piecewise(model, theta, V, f, R):
     return 2 / np.pi * (Es + 1j * Ec) / V, I
 
 
-def reference_rayleigh(theta, V, f, R, I_guess):
-    """(DF, I_p) of the Rayleigh law by solve_ivp on di/dt = e / (w B'(i))."""
+def reference_rayleigh(theta, V, f, R, I_guess, method="LSODA"):
+    """(DF, I_p) of the Rayleigh law by solve_ivp on di/dt = e / (w B'(i)).
+
+    LSODA is fast except deep in saturation, where ``B'`` is tiny and Radau finishes in
+    seconds rather than minutes."""
     mu0, gamma, c_sat = theta
     w = 2 * np.pi * f
 
@@ -204,7 +208,7 @@ def reference_rayleigh(theta, V, f, R, I_guess):
             rhs,
             (phi0 + 1e-9, phi0 + np.pi + 0.5),
             [-I, 0.0, 0.0],
-            method="LSODA",
+            method=method,
             events=top,
             rtol=1e-9,
             atol=[1e-12 * I, 1e-12, 1e-12],

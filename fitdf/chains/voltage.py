@@ -419,7 +419,7 @@ class VoltageChain(MeasurementChain):
     settings: VoltageSettings = VoltageSettings()
 
     @classmethod
-    def configured(cls, **changes) -> type["VoltageChain"]:
+    def configured(cls, **changes) -> type[VoltageChain]:
         """A subclass with some :class:`VoltageSettings` changed (convergence studies)."""
         return type(cls.__name__, (cls,), {"settings": replace(cls.settings, **changes)})
 

@@ -155,7 +155,7 @@ def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
             posterior=_as_arviz(loo_draws, names), log_likelihood={"df": np.swapaxes(loglik, 0, 1)}
         )
         loo = az.loo(idata, pointwise=True)
-        waic = az.waic(idata)
+        waic = az.waic(idata, pointwise=True)  # explicit: the rcParams default may be False
     # ArviZ's shape heuristic complains when walkers outnumber the (thinned) draws; that is expected here.
     caught = sorted(
         {
