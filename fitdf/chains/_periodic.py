@@ -1,11 +1,14 @@
 """Compiled kernels of the ``voltage`` chain (:mod:`fitdf.chains.voltage`).
 
-Three entry points, each compiled for one float64 signature (``cache=True``):
+Each ``numba.njit(cache=True)`` function is compiled for one signature (float64 arrays):
 
-* :func:`place_nodes` -- where to tabulate a branch, from a coarse table of it;
-* :func:`half_periods` -- the rising half period of many points at once (``prange``):
-  the peak current reached and the first harmonics of flux linkage and current;
-* :func:`half_period_wave` -- the same for one point, recording the waveform.
+* :func:`place_nodes` -- where to tabulate a branch, from a table of it;
+* :func:`half_periods` -- the rising half period of many points at once (rows in a
+  compiled loop, split over threads only on request): the peak current reached and the
+  first harmonics of the flux linkage (the helpers :func:`_refine` and
+  :func:`_integrate` do the work);
+* :func:`half_period_wave` -- the same for one point, recording the waveform;
+* :func:`secant_update` -- one step of the per-point root search of the peak current.
 
 The method and its accuracy are described in :mod:`fitdf.chains.voltage`.
 """
@@ -15,7 +18,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["place_nodes", "half_periods", "half_period_wave", "N_OUT"]
+__all__ = ["place_nodes", "half_periods", "half_period_wave", "secant_update", "N_OUT"]
 
 #: Columns of :func:`half_periods`' output: peak current, flux harmonics (sin, cos),
 #: number of steps.

@@ -29,42 +29,62 @@ so a root exists; it is found for all points at once (below).
 *First harmonic.* With half-wave symmetry the output's Fourier coefficients are twice
 the half-period integrals, and integrating ``e = w d lambda/d(wt)`` by parts (the
 boundary term cancels, ``lambda`` and ``sin`` both change sign over half a period) gives
-``DF = gain j w Lambda_1 / V``, ``Lambda_1 = (2/pi) int lambda (sin + j cos) d(wt)``:
-the flux is the smooth, accurately integrated variable (``V = R I_1 + j w Lambda_1``
-for the exact solution; the current form loses digits when ``DF`` is small).
+``DF = gain j w Lambda_1 / V``, ``Lambda_1 = (2/pi) int lambda (sin + j cos) d(wt)``
+(trapezoid rule on the steps): the flux is the smooth variable (the current jumps onto
+saturation flats; ``V = R I_1 + j w Lambda_1`` for the exact solution, and the current
+form loses digits when ``DF`` is small). The scheme's EMF at the nodes is BDF2's
+difference quotient of the flux, whose response to ``exp(j theta)`` is ``1 + 8.9e-5``
+times the derivative's at 192 steps; multiplying by that factor removes the leading
+dispersion error.
 
 *Integration* (:mod:`fitdf.chains._periodic`, compiled). The branch is tabulated at
-``nodes`` currents placed along the curve (equal shares of current range, flux swing and
-bending, from a coarse table), made monotone (a falling part becomes a flat: the flux
-cannot fall while the current rises) and refined: each cell is split at the exact kink
-when the cells on both sides are straight (so piecewise-linear laws are represented
-exactly wherever their kinks fall), or at a cubic midpoint on smooth stretches. The ODE
-in the phase ``theta = wt``, ``R i + w d lambda/d theta = V sin theta``, is stepped with
-BDF2 (``steps`` per half period; shorter where the state moves fast along the branch,
-e.g. the sharp rise of the current into a soft saturation), each implicit step
-``R i + c B(i) = rhs`` solved exactly on the piecewise-linear table with a pointer that
-only moves forward (the current is monotone). Flats (dead zones, hard saturation) need
-nothing special: there the step returns ``i = (V sin - e)/R`` and the current takes the
-voltage; where the flux reaches a flat with ``e > 0`` the current jumps (zero
-inductance), and the phase of arrival is interpolated inside the step, so ``i_peak`` is
-second-order accurate even when the peak is such a jump.
+``nodes`` currents placed along the curve: equal shares of current range, flux swing and
+bending, from a uniform table of ``placement_nodes`` and again from the table that gives
+(and up to three more times where one cell still holds a fifth of the flux swing: an
+almost rectangular loop, whose narrow step moves in ``u = i / I_p`` as ``I_p`` changes,
+so those points are placed anew at every amplitude tried). The table is made monotone (a
+falling part, e.g. the Fig 4.2 loop with ``m > 0.5``, becomes a flat: the flux cannot
+fall while the current rises, the current jumps) and refined: each cell is split at the
+exact kink when the cells on both sides are straight (piecewise-linear laws are then
+represented exactly wherever their kinks fall), or at its midpoint bent by the local
+curvature on smooth stretches (the 4-point cubic on an even grid). Beyond the tip the
+last cell's line continues the branch. The ODE in the phase ``theta = wt``,
+``R i + w d lambda/d theta = V sin theta``, is stepped with BDF2 (``steps`` per half
+period, a trapezoidal first step from the turning point; steps shrink where the state
+moves fast along the branch, e.g. the sharp rise of the current into a soft
+saturation), each implicit step ``a i + c B(i) = rhs`` solved exactly on the
+piecewise-linear table with a pointer that only moves forward (the current is
+monotone). Flats (dead zones, hard saturation) need nothing special: there the step
+gives ``i = (V sin - e)/R`` and the current takes the voltage (an EMF that BDF2 would
+make negative after the flux stops is clipped to 0); where the flux reaches a flat with
+``e > 0`` the current jumps (zero inductance), and the phase of arrival is interpolated
+inside the step, so ``i_peak`` stays second-order accurate when the peak is such a jump.
 
-*Root.* Two stages, vectorised over the points still unconverged: (1) coarse tables
-(``coarse_nodes``, ``coarse_steps``) from a guess -- ``initial_current``, or the
-amplitude at which a sinusoidal flux of the loop tip's size would need ``V``,
-``hypot(R a, w B(a; a)) = V`` -- by a safeguarded secant (first step ``G/2``: exact
-for a linear core behind a small ``R``), bracketing and log-bisection; (2) fine tables on
-nodes placed (in two passes) from the coarse table at the coarse root, secant steps from
-the coarse slope, and the DF interpolated linearly in ``I_p`` between the last two
-evaluations at the secant root (error ~ the product of their distances to it). ``G``
-jumps where the peak current is reached by a jump onto a saturation flat exactly at the
-half period (the steady state sits on the edge); the DF is continuous there and
-bracketing converges to the edge.
+*Root.* Two stages, vectorised over the points still unconverged, each step of the
+search compiled per point (:func:`_search`): (1) coarse tables (``coarse_nodes``
+uniform, ``coarse_steps``) from a guess -- ``initial_current``, or the amplitude at which
+a sinusoidal flux of the loop tip's size would need ``V``, ``hypot(R a, w B(a; a)) = V``
+-- to ``coarse_tol``; (2) fine tables on nodes placed at the coarse root, secant steps
+started with the coarse slope (at most 1 % each until bracketed), and the DF
+interpolated linearly in ``I_p`` through the last pair at the secant root (its error is
+``DF''/2`` times the distances to both points: accepted when the linear correction is at
+most ``df_tol``). ``G`` jumps where the peak current is reached by a jump onto a
+saturation flat exactly at the half period (the steady state sits on the edge, common
+at 0 ohm above the knee): the search detects the jump from inconsistent secant slopes,
+extrapolates the side where ``G`` tends to 0, and bisects; the DF is continuous there and
+is interpolated across the final bracket.
+
+*Limits.* The method assumes one monotone rise and fall of the current per period (no
+minor loops, no subharmonics); a law whose loops are not nested can make ``G`` jump over
+0 (e.g. the Fig 4.2 loop at some drives): the edge is then returned, as the references
+of the tests do. The discrete decisions (step refinement, node placement, convergence)
+make the DF jitter by up to ~1e-5 (1e-4 at the edge of a jump) between parameter sets a
+hair apart: finite-difference Jacobians need steps above that.
 
 Accuracy and speed are measured in ``benchmarks/bench_voltage.py`` and listed in
-``benchmarks/README.md`` ("The voltage chain"): the defaults give ``|DF - DF_exact|``
-of order 1e-4 for every registered law, against exact piecewise-linear integration and
-``solve_ivp`` references (``tests/test_voltage_chain.py``).
+``benchmarks/README.md`` ("The voltage chain"): with the defaults ``|DF - DF_exact|`` is
+at most ~2e-4 for every registered law at 0 and 600 ohm (against exact piecewise-linear
+integration and ``solve_ivp``, ``tests/test_voltage_chain.py``).
 """
 
 from __future__ import annotations
@@ -369,14 +389,17 @@ def _solve(model, V, f, R, kw, initial, st: VoltageSettings):
     # every amplitude tried
     u2, narrow = _place(pts, live, Ic, st)
     u_fine[live] = u2
+    placed_at = Ic.copy()
 
     def fine(sub, x):
         u = u2[sub]
-        moving = np.flatnonzero(narrow[sub])
+        # (a step of relative width w in u moves by about u dI/I: re-place beyond 1e-3)
+        moving = np.flatnonzero(narrow[sub] & (np.abs(x / placed_at[sub] - 1) > 1e-3))
         if moving.size:
             u = u.copy()
             u[moving] = _place(pts, live[sub[moving]], x[moving], st)[0]
             u2[sub[moving]] = u[moving]
+            placed_at[sub[moving]] = x[moving]
         g, d, _ = pts.run(live[sub], x, u, st.steps, st.refine_factor)
         return g, d
 
