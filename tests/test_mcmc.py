@@ -70,3 +70,19 @@ def test_posterior_covers_true_parameters_and_converges(problem, lsq):
     lsq_sigma = lsq.stderr
     for name in ("k", "m"):  # posterior width agrees with the least-squares error within a factor 2
         assert 0.5 < r.stderr[name] / lsq_sigma[name] < 2.0
+
+
+def test_sampling_leaves_the_least_squares_problem_cold():
+    # MCMC starts the exact chain's solver at the optimum's currents; a root found from
+    # another start differs within the solver's tolerance (~1e-5 here), so doing that on
+    # the shared problem made the least-squares result's predictions depend on whether a
+    # chain had run in the same process (a report's serial and pooled runs differed)
+    frame = synthetic_frame("proportional_width", TRUE, chain="winding", seed=3)
+    problem = FitProblem(resolve_data(frame, policy="all"), "proportional_width", "voltage")
+    lsq = fit_lsq(problem, seed=0, n_starts=1)
+    before = problem.predict(lsq.internal)
+    post = fit_mcmc(problem, lsq, seed=0, n_steps=4, n_walkers=16)
+    np.testing.assert_array_equal(problem.predict(lsq.internal), before)
+    assert problem.warm_current is None and post.problem.warm_current is not None
+    # the warm copy is the same problem otherwise: same parameters, data and chain
+    assert post.problem.names == problem.names and post.problem.chain is problem.chain

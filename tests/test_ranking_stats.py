@@ -221,6 +221,23 @@ def test_ranking_order_rank_column_and_best_by_aicc():
         ranking_table(results, rank_by="nope")
 
 
+def test_cross_validation_and_warnings_columns():
+    results = [stand_in("a", 10.0, rms=0.01), stand_in("b", 11.0, rms=0.02)]
+    results[1].warnings.extend(["one", "two"])
+    t = by_model(ranking_table(results, cv={1: {"cv_rms_complex": 0.05}}))
+    assert np.isnan(t.loc["a", "cv_rms_complex"]) and t.loc["b", "cv_rms_complex"] == 0.05
+    assert t.loc["a", "warnings"] == 0 and t.loc["b", "warnings"] == 2
+    ordered = ranking_table(
+        results,
+        rank_by="cv_rms_complex",
+        cv={0: {"cv_rms_complex": 0.09}, 1: {"cv_rms_complex": 0.05}},
+    )
+    assert list(ordered["model"]) == ["b", "a"]
+    for ic in ("looic", "waic"):  # information criteria of MCMC fits only
+        with pytest.raises(OptionError, match="needs MCMC"):
+            ranking_table(results, rank_by=ic)
+
+
 def test_aicc_overturns_the_rms_order_for_many_parameters_on_few_points():
     # 6 rows = 12 weighted residuals. The 7-parameter model fits a little better (chi2 11 vs 12,
     # RMS 4 % lower) than the 2-parameter one.
@@ -360,6 +377,9 @@ def test_loo_columns_and_ties_match_arviz_compare(mcmc_results):
         assert t.loc[name, "elpd_loo_dse"] == pytest.approx(direct.loc[name, "dse"], abs=1e-9)
         assert t.loc[name, "loo_weight"] == pytest.approx(direct.loc[name, "weight"], abs=1e-6)
     assert list(t.index) == list(direct.index)  # LOO-IC order is ArviZ's elpd order
+    for r in mcmc_results:  # the fits' own LOO-IC and WAIC, passed through
+        for col in ("looic", "looic_se", "waic"):
+            assert t.loc[r.model, col] == r.metrics[col]
     # elpd difference and its standard error by hand, from the pointwise elpd
     best = np.asarray(mcmc_results[0].diagnostics["pointwise_elpd_loo"])
     assert direct.index[0] == "near"

@@ -202,9 +202,9 @@ def fit_mcmc(
     seed still fixes the result.
     """
     rng = np.random.default_rng(seed)
-    problem.set_warm_start(
-        lsq.internal
-    )  # walkers stay near the optimum: its currents start the solver
+    # walkers stay near the optimum: its currents start the solver (on a copy: the caller's
+    # problem, shared with the least-squares result, keeps its cold predictions)
+    problem = problem.warm_started(lsq.internal)
     logpost = LogPosterior(problem)
     P = problem.ndim
     ndim = P + 2

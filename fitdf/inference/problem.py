@@ -18,6 +18,7 @@ gives the direction.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import replace
 
 import numpy as np
@@ -196,13 +197,17 @@ class FitProblem:
             warm=self.warm_current,
         )
 
-    def set_warm_start(self, internal):
-        """Start the chain's current solver at the currents of ``internal`` (e.g. the optimum).
+    def warm_started(self, internal) -> FitProblem:
+        """A copy of this problem whose chain solver starts at the currents of ``internal``.
 
-        Fixed once, so every later evaluation is independent of the evaluation history.
-        Only convergence speed changes: the solver still converges to its tolerance.
+        The copy's start is fixed once, so its evaluations do not depend on their history;
+        only convergence speed changes, but a root found from another start differs within
+        the solver's tolerance, so this problem itself is left cold (its predictions, and
+        every number reported from them, must not depend on what ran before).
         """
-        self.warm_current = self.core_currents(internal)
+        warm = copy.copy(self)
+        warm.warm_current = self.core_currents(internal)
+        return warm
 
     def core_currents(self, internal):
         """Peak winding current at each data row for one internal vector (the chain's operating point)."""
