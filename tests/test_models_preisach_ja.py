@@ -2,10 +2,15 @@
 
 import numpy as np
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 from scipy import integrate
 from scipy.integrate import solve_ivp
 from scipy.special import ndtr
+from scipy.stats import multivariate_normal
 
+from fitdf.models._bvn import bvn
+from fitdf.models._preisach_everett import _bvn, _preisach_branch_reference
 from fitdf.models.jiles_atherton import (
     JA_1986,
     JilesAtherton,
@@ -21,6 +26,7 @@ from fitdf.models.preisach import (
     PreisachState,
     everett,
     everett_slope,
+    preisach_branch,
     preisach_describing_function,
     preisach_output,
     rayleigh_constant,
@@ -82,6 +88,125 @@ def test_everett_slope_is_the_alpha_derivative():
     h = 1e-9
     fd = (everett(alpha + h, beta, **th) - everett(alpha - h, beta, **th)) / (2 * h)
     np.testing.assert_allclose(everett_slope(alpha, beta, **th), fd, rtol=1e-6)
+
+
+# --- Preisach: compiled branch (Genz's bivariate normal) against the Owen's T form ---------------
+
+BVN_R = (-0.999, -0.95, -0.5, 0.0, 0.3, 0.9, 0.95, 0.999)
+BVN_HK = (-np.inf, -45.0, -8.0, -3.0, -1.2, -0.4, 0.0, 1e-3, 0.25, 0.8, 1.7, 4.0, 9.0, 41.0, np.inf)
+
+
+@pytest.mark.parametrize("r", BVN_R)
+def test_scalar_bvn_against_owens_t_and_scipy(r):
+    """Genz's BVND in numba against Owen's-T (``_bvn``) and scipy's multivariate normal."""
+    ours = np.array([[bvn(h, k, r) for k in BVN_HK] for h in BVN_HK])
+    owen = _bvn(np.array(BVN_HK)[:, None], np.array(BVN_HK)[None, :], r)
+    np.testing.assert_allclose(ours, owen, rtol=0, atol=2e-15)
+    finite = [v for v in BVN_HK if abs(v) < 10]
+    mvn = multivariate_normal(mean=[0.0, 0.0], cov=[[1.0, r], [r, 1.0]])
+    ref = [[mvn.cdf([h, k]) for k in finite] for h in finite]
+    np.testing.assert_allclose([[bvn(h, k, r) for k in finite] for h in finite], ref, atol=1e-15)
+    assert bvn(np.inf, np.inf, r) == 1.0 and bvn(-np.inf, 0.3, r) == 0.0
+
+
+def _sq(i_c, sigma_c, i_i):
+    """``sqrt(1 - r^2)`` of the bivariate normals of :func:`everett` (``r = s/S``)."""
+    return i_i / np.hypot(sigma_c * i_c, i_i)
+
+
+def branch_by_quadrature(x, A, i_c, sigma_c, i_i):
+    """``-E(A, -A) + 2 E(x, -A)`` from the defining 1-D integral, cut at every feature (~1e-15)."""
+    s = sigma_c * i_c
+
+    def E(alpha, beta):
+        w = 0.5 * (alpha - beta)
+        f = lambda h: (  # noqa: E731
+            np.exp(-0.5 * ((h - i_c) / s) ** 2)
+            / (s * np.sqrt(2 * np.pi) * ndtr(i_c / s))
+            * (ndtr((alpha - h) / i_i) - ndtr((beta + h) / i_i))
+        )
+        cuts = [i_c + s * j for j in range(-9, 10)]
+        cuts += [c + i_i * j for c in (alpha, -beta) for j in (-12, -6, -3, -1, 0, 1, 3, 6, 12)]
+        edges = [0.0, *sorted({c for c in cuts if 0 < c < w}), w]
+        return sum(
+            integrate.quad(f, a, b, epsabs=1e-17, epsrel=1e-14, limit=200)[0]
+            for a, b in zip(edges[:-1], edges[1:])
+        )
+
+    return -E(A, -A) + 2.0 * E(x, -A)
+
+
+log_uniform = lambda lo, hi: st.floats(lo, hi).map(lambda v: 10.0**v)  # noqa: E731
+
+
+@settings(max_examples=150, deadline=None, database=None, derandomize=True)
+@given(
+    i_c=log_uniform(-7, -1),
+    sigma_c=log_uniform(-2, 1),
+    i_i=log_uniform(-8, -1),
+    A=log_uniform(-7, 0),
+    u=st.lists(st.floats(-1, 1), min_size=1, max_size=20),
+)
+@example(i_c=1e-7, sigma_c=0.01, i_i=0.1, A=1e-7, u=[0.5])  # r ~ 1e-8
+@example(i_c=0.1, sigma_c=10.0, i_i=1e-8, A=1.0, u=[0.0])  # r = 1 in floating point
+@example(i_c=1e-3, sigma_c=0.01, i_i=1e-4, A=1e-3, u=[0.99])  # square loop, x0 = -100
+@example(i_c=1e-4, sigma_c=0.32, i_i=3e-5, A=2e-4, u=[-0.3, 0.5])  # middle of the box
+def test_compiled_branch_matches_owens_t_reference(i_c, sigma_c, i_i, A, u):
+    """The compiled ``preisach_branch`` against ``-E(A, -A) + 2 E(x, -A)`` by :func:`everett`.
+
+    1e-13 absolute, plus the Owen's-T form's own loss as ``r -> 1``: it takes
+    ``(k - r h) / (h sqrt(1 - r^2))`` from a rounded ``r``, ~1e-16 / sqrt(1 - r^2) (e.g.
+    7e-11 at ``i_i / (sigma_c i_c) = 1e-6``; NaN once ``r`` rounds to 1). There the compiled
+    branch is checked against the 1-D integral (next test).
+    """
+    x = A * np.array([-1.0, 1.0, *u])
+    kw = dict(i_c=i_c, sigma_c=sigma_c, i_i=i_i)
+    ours = preisach_branch(x, A, **kw)
+    assert np.all(np.isfinite(ours)) and np.all(np.abs(ours) <= 1.0)
+    with np.errstate(all="ignore"):
+        ref = _preisach_branch_reference(x, A, **kw)
+    ok = np.isfinite(ref)
+    assert ok.all() or _sq(i_c, sigma_c, i_i) < 1e-7
+    tol = 1e-13 + 3e-16 / _sq(i_c, sigma_c, i_i)
+    np.testing.assert_allclose(ours[ok], ref[ok], rtol=0, atol=tol)
+
+
+@pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")  # at the roundoff level
+@pytest.mark.parametrize("near_one", [False, True])
+def test_compiled_branch_matches_the_triangle_integral(near_one):
+    """Against the defining integral, over the box and near ``r = 1`` (``i_i << sigma_c i_c``)."""
+    rng = np.random.default_rng(11 + near_one)
+    worst = 0.0
+    for _ in range(25):
+        i_c, sigma_c = 10 ** rng.uniform(-7, -1), 10 ** rng.uniform(-2, 1)
+        i_i = sigma_c * i_c * 10 ** rng.uniform(-8, -2) if near_one else 10 ** rng.uniform(-8, -1)
+        A = 10 ** rng.uniform(-7, 0)
+        x = A * np.array([-1.0, 1.0, *rng.uniform(-1, 1, 3)])
+        ours = preisach_branch(x, A, i_c=i_c, sigma_c=sigma_c, i_i=i_i)
+        ref = [branch_by_quadrature(v, A, i_c, sigma_c, i_i) for v in x]
+        worst = max(worst, np.max(np.abs(ours - ref)))
+    assert worst < 1e-13
+
+
+def test_compiled_branch_broadcasts_and_keeps_the_limits():
+    """Rows of parameters against a branch table (the voltage chain's call), and the edge cases."""
+    th = theta_matrix(Preisach, PREISACH_SETS.values())
+    kw = {p.name: th[:, i, None] for i, p in enumerate(Preisach.params)}
+    shape = {k: kw[k] for k in ("i_c", "sigma_c", "i_i")}
+    a = np.array([[3e-4], [2e-3], [5e-2]])
+    x = a * np.cos(np.linspace(np.pi, 0.0, 127))
+    ours = preisach_branch(x, a, **shape)
+    assert ours.shape == (3, 127)
+    np.testing.assert_allclose(ours, _preisach_branch_reference(x, a, **shape), atol=1e-14)
+    np.testing.assert_allclose(ours[:, -1], -ours[:, 0], atol=1e-15)  # P(A) = -P(-A) = E(A, -A)
+    row = {k: float(v[1, 0]) for k, v in shape.items()}
+    np.testing.assert_array_equal(ours[1], preisach_branch(x[1], a[1, 0], **row))
+    edge = np.array([-np.inf, -2e-3, -1e-3, 0.0, 1e-3, 2e-3, np.inf, np.nan])
+    for amp in (0.0, 2e-3, -2e-3, np.inf):
+        with np.errstate(all="ignore"):
+            ref = _preisach_branch_reference(edge, amp, **row)
+        np.testing.assert_allclose(preisach_branch(edge, amp, **row), ref, rtol=0, atol=1e-15)
+    assert preisach_branch(1e-3, 2e-3, **row).shape == ()
 
 
 # --- Preisach: describing function ---------------------------------------------------------------
