@@ -10,11 +10,13 @@ Also here: the cost of the winding chain's current solver, counted in model call
 """
 
 import math
+import warnings
 
 import arviz as az
 import emcee
 import numpy as np
 import pytest
+import xarray as xr
 from synthetic import synthetic_frame
 
 import fitdf.inference.mcmc as mcmc
@@ -112,6 +114,53 @@ def test_autocorrelation_time_of_an_ar1_chain():
     # however short the chain (here 15 draws, tau 19), fit_mcmc gets an estimate to decide on
     short = autocorr_time(chain[:15])
     assert np.all(np.isfinite(short)) and np.all(short > 0)
+
+
+def normal_draws(n_obs=30, n_draws=200, n_walkers=8, seed=4):
+    """emcee-shaped draws of a normal mean and their pointwise log-likelihood: well behaved, so
+    ArviZ itself warns about nothing (all Pareto k small)."""
+    rng = np.random.default_rng(seed)
+    y = rng.normal(0.0, 1.0, n_obs)
+    mu = y.mean() + rng.normal(0.0, 1 / math.sqrt(n_obs), (n_draws, n_walkers, 1))
+    return mu, -0.5 * (y - mu) ** 2 - 0.5 * math.log(2 * math.pi)
+
+
+def test_arviz_refactor_notice_is_not_a_fit_warning(monkeypatch):
+    # ArviZ 0.x's notice about its coming 1.0 says nothing about a fit: if it is raised while
+    # the diagnostics run, it must not reach the fit's warnings; any other ArviZ warning does
+    mu, loglik = normal_draws()
+    assert mcmc._arviz_diagnostics(mu, ["mu"], mu, loglik)[1] == []
+    loo = az.loo
+
+    def noisy_loo(*args, **kw):
+        warnings.warn(
+            "\nArviZ is undergoing a major refactor to improve flexibility and extensibility",
+            FutureWarning,
+            stacklevel=2,
+        )
+        warnings.warn("some other ArviZ notice\nsecond line", FutureWarning, stacklevel=2)
+        return loo(*args, **kw)
+
+    monkeypatch.setattr(az, "loo", noisy_loo)
+    assert mcmc._arviz_diagnostics(mu, ["mu"], mu, loglik)[1] == ["some other ArviZ notice"]
+
+
+def test_pareto_k_above_0_7_counts_as_bad(monkeypatch):
+    # the count of unreliable rows is of k > 0.7, strictly (ArviZ's threshold at >= 2154 draws)
+    mu, loglik = normal_draws(n_obs=5)
+    k = np.array([0.1, 0.7, np.nextafter(0.7, 1.0), 1.3, 0.69])
+    loo = az.loo
+
+    def loo_with_k(*args, **kw):
+        out = loo(*args, **kw)
+        return az.ELPDData(
+            data=[xr.DataArray(k) if i == "pareto_k" else v for i, v in out.items()],
+            index=list(out.index),
+        )
+
+    monkeypatch.setattr(az, "loo", loo_with_k)
+    diag, _ = mcmc._arviz_diagnostics(mu, ["mu"], mu, loglik)
+    assert diag["n_pareto_k_bad"] == 2 and diag["pareto_k_max"] == 1.3
 
 
 # --- the same functions inside fit_mcmc -----------------------------------------------------

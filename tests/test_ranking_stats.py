@@ -31,7 +31,7 @@ from scipy import stats
 from fitdf.errors import OptionError
 from fitdf.inference.mcmc import _arviz_diagnostics
 from fitdf.inference.metrics import information_criteria, phase_difference_deg, residual_metrics
-from fitdf.inference.ranking import best_by_aicc, ranking_table
+from fitdf.inference.ranking import _elpd_data, best_by_aicc, ranking_table
 
 
 def stand_in(model, aicc, *, method="lsq", rms=0.01, k=3, n=20, diagnostics=None, **metrics):
@@ -139,6 +139,16 @@ def test_information_criteria_edge_cases():
     assert none["aic"] == none["aicc"] == none["bic"] == pytest.approx(0.0, abs=1e-15)
 
 
+def test_information_criteria_are_computed_in_double_precision():
+    # single-precision residuals are squared and summed in float64: squaring in float32 alone
+    # is off by 6e-8 here, which would move N ln(chi2 / N) (N = 1001) by 6e-5
+    r32 = (np.linspace(-2, 2, 1001) * 0.1).astype(np.float32)
+    r64 = r32.astype(float)  # the same numbers, exactly
+    ic = information_criteria(r32, 3)
+    assert ic == information_criteria(r64, 3)
+    assert ic["chi2"] == pytest.approx(math.fsum(x * x for x in r64.tolist()), rel=1e-14)
+
+
 def test_residual_metrics_by_hand():
     deg = np.pi / 180
     measured = np.array([1.0, 1j, -1.0, 0.0])
@@ -236,6 +246,28 @@ def test_cross_validation_and_warnings_columns():
     for ic in ("looic", "waic"):  # information criteria of MCMC fits only
         with pytest.raises(OptionError, match="needs MCMC"):
             ranking_table(results, rank_by=ic)
+
+
+#: The ranking table's columns, in order: a ``ranking_row`` of schemas/results.schema.json (its
+#: required properties, in that order), then the MCMC comparison columns.
+TABLE_COLUMNS = [
+    "rank", "model", "chain", "method", "n_params", "n_points", "rms_complex", "rms_magnitude",
+    "rms_phase_deg", "redchi", "aicc", "bic", "looic", "looic_se", "waic", "cv_rms_complex",
+    "warnings", "delta_aicc", "aicc_weight", "indistinguishable_from", "elpd_loo_diff",
+    "elpd_loo_dse", "loo_weight",
+]  # fmt: skip
+
+
+def test_table_columns_and_empty_mcmc_columns_are_float_nan():
+    # least squares only, no cross-validation: every column is there, in the schema's order, and
+    # the columns without a value are float columns of NaN (not None), whatever the methods
+    t = ranking_table([stand_in("a", 10.0), stand_in("b", 11.0)])
+    assert list(t.columns) == TABLE_COLUMNS
+    for col in ("looic", "looic_se", "waic", "cv_rms_complex", "elpd_loo_diff", "loo_weight"):
+        assert t[col].dtype == np.float64, col
+        assert np.isnan(t[col].to_numpy()).all(), col
+    with_cv = ranking_table([stand_in("a", 10.0)], cv={0: {"cv_rms_complex": 0.05}})
+    assert list(with_cv.columns) == TABLE_COLUMNS and with_cv.loc[0, "cv_rms_complex"] == 0.05
 
 
 def test_aicc_overturns_the_rms_order_for_many_parameters_on_few_points():
@@ -442,3 +474,66 @@ def test_loo_columns_are_empty_on_least_squares_rows(mcmc_results):
     # the same posterior twice cannot be told apart (zero difference, zero dse)
     assert by_model(t).loc["twin", "indistinguishable_from"] == "near/winding, close/winding"
     assert by_model(t).loc["twin", "elpd_loo_dse"] == 0.0
+
+
+def test_elpd_data_is_arvizs_loo_rebuilt(mcmc_results):
+    # what ranking hands arviz.compare is what arviz.loo returns for the same draws: elpd, its
+    # standard error sqrt(n var(elpd_i)), p_loo, the warning flag and the pointwise values
+    for r, (shift, seed) in zip(mcmc_results, SHIFTS.values()):
+        loo = az.loo(direct_idata(shift, seed), pointwise=True)
+        e = _elpd_data(r)
+        assert e["elpd_loo"] == pytest.approx(loo.elpd_loo, rel=1e-12)
+        assert e["se"] == pytest.approx(loo.se, rel=1e-12)
+        assert e["se"] == pytest.approx(math.sqrt(N_OBS * np.var(np.asarray(loo.loo_i))))
+        assert e["p_loo"] == pytest.approx(loo.p_loo, rel=1e-12)
+        assert e["warning"] is False and loo.warning is False
+        np.testing.assert_allclose(e["loo_i"], np.asarray(loo.loo_i), rtol=1e-12)
+        assert e["scale"] == loo.scale == "log"
+    # an influential row (Pareto k > 0.7, the same threshold as ArviZ at 3000 draws): a warning
+    rng = np.random.default_rng(0)
+    y = np.append(rng.normal(0.0, 1.0, 9), 4.5)
+    mu = y.mean() + rng.normal(0.0, 0.1, (50, 60, 1))
+    loglik = stats.norm.logpdf(y, loc=mu, scale=0.4)
+    diag, _ = _arviz_diagnostics(mu, ["mu"], mu, loglik)
+    with pytest.warns(UserWarning):  # more walkers than draws, and the Pareto k
+        idata = az.from_dict(
+            posterior={"mu": mu[..., 0].T}, log_likelihood={"y": np.swapaxes(loglik, 0, 1)}
+        )
+        loo = az.loo(idata, pointwise=True)
+    e = _elpd_data(stand_in("bad", 0.0, method="mcmc", diagnostics=diag))
+    assert diag["n_pareto_k_bad"] == 1 and e["warning"] is True and loo.warning is True
+    assert e["p_loo"] == pytest.approx(loo.p_loo, rel=1e-12)
+    assert e["se"] == pytest.approx(loo.se, rel=1e-12)
+
+
+def test_elpd_data_from_pointwise_values_alone(mcmc_results):
+    # a result that kept only the pointwise elpd (no p_loo, no Pareto count): no warning, p_loo
+    # unknown, and it still ranks against the others
+    loo_i = np.asarray(mcmc_results[0].diagnostics["pointwise_elpd_loo"])
+    bare = stand_in("bare", 0.0, method="mcmc", diagnostics={"pointwise_elpd_loo": list(loo_i)})
+    e = _elpd_data(bare)
+    assert e["warning"] is False and math.isnan(e["p_loo"])
+    assert e["elpd_loo"] == pytest.approx(loo_i.sum(), rel=1e-12)
+    t = by_model(ranking_table([*mcmc_results, bare]))
+    assert t.loc["bare", "elpd_loo_diff"] == pytest.approx(0.0, abs=1e-9)  # same elpd as "near"
+    assert "near/winding" in t.loc["bare", "indistinguishable_from"]
+
+
+def loo_only(model, pointwise):
+    return stand_in(model, 0.0, method="mcmc", diagnostics={"pointwise_elpd_loo": list(pointwise)})
+
+
+def test_loo_tie_needs_a_difference_below_two_standard_errors():
+    # pointwise differences [1, 1, 0, 0]: elpd_diff = 2, dse = sqrt(4 var) = sqrt(4 * 0.25) = 1,
+    # all exact in binary: exactly 2 dse apart is not a tie (as the AICc rule: less than 2)
+    a = loo_only("a", [-1.0, -1.0, -1.0, -1.0])
+    b = loo_only("b", [-2.0, -2.0, -1.0, -1.0])
+    t = by_model(ranking_table([a, b]))
+    assert t.loc["b", "elpd_loo_diff"] == 2.0 and t.loc["b", "elpd_loo_dse"] == 1.0
+    assert t.loc["a", "indistinguishable_from"] == t.loc["b", "indistinguishable_from"] == ""
+    # differences [1, 0.875, 0, 0]: elpd_diff 1.875, dse = sqrt(0.88671875) = 0.941657: a tie
+    c = loo_only("c", [-2.0, -1.875, -1.0, -1.0])
+    t = by_model(ranking_table([a, c]))
+    assert t.loc["c", "elpd_loo_diff"] == 1.875
+    assert t.loc["c", "elpd_loo_dse"] == pytest.approx(math.sqrt(0.88671875), rel=1e-12)
+    assert t.loc["a", "indistinguishable_from"] == "c/winding"

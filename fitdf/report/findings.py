@@ -150,6 +150,8 @@ def findings(results: dict) -> list[str]:
                 f"complex residual {r['predict_rms_complex']:.3f} (training residual "
                 f"{r['train_rms_complex']:.3f}{own_text})."
             )
+    for rec in results.get("small_signal", []):
+        out.append(f"Small signals, {rec['block']} (`{rec['model']}`): {rec['verdict']}.")
     for core, keys in (("permalloy", ("B.1", "B.3")), ("deltamax", ("B.2", "B.5"))):
         joint = blocks.get(f"{core}-joint")
         sep = [blocks[k] for k in keys if k in blocks]
