@@ -1,35 +1,54 @@
 """The ``fitdf`` command line: a thin layer that parses options and calls the library.
 
 Every user mistake (unknown core, missing file, bad CSV, unknown model, impossible
-option combination) is one line on stderr and exit code 2; an internal failure says so
+option or option value) is one line on stderr and exit code 2; an internal failure says so
 and where to look (``--debug`` shows the traceback).
+
+Start-up stays light: this module imports only the standard library and ``fitdf.errors``
+at the top, so ``fitdf --version`` and every ``--help`` answer without loading numpy,
+pandas, matplotlib or the fitting stack. Each subcommand handler (``cmd_*``) imports what
+it needs when it runs -- the only function-level imports the package allows
+(tests/test_architecture.py). The choices the parser offers are therefore written out
+here; tests/test_cli_fast.py checks them against the library.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import re
+import signal
 import sys
 import traceback
-
-import pandas as pd
-from tqdm.auto import tqdm
+from pathlib import Path
 
 from fitdf import __version__
-from fitdf._json import clean
-from fitdf.chains import CHAINS, chain_names
-from fitdf.data import audit, datasets
-from fitdf.data.cores import parse_geometry
 from fitdf.errors import FitdfError, OptionError
-from fitdf.inference.api import DEFAULT_CHAIN
-from fitdf.inference.ranking import METHOD_CHOICES, RANK_COLUMNS, compare_fits
-from fitdf.loop.fitted import fitted_limit_cycles
-from fitdf.models import MODELS, model_names
-from fitdf.plots.limit_cycles import plot_nyquist
-from fitdf.report.build import generate_report
 
 EXIT_USAGE = 2
 EXIT_INTERNAL = 1
+
+#: Measurement chains (``fitdf.chains.chain_names()``) and the default chain
+#: (``fitdf.inference.api.DEFAULT_CHAIN``).
+CHAIN_CHOICES = ("direct", "winding", "voltage")
+DEFAULT_CHAIN = "voltage"
+#: ``fitdf.inference.ranking.METHOD_CHOICES`` and ``RANK_COLUMNS``.
+METHOD_CHOICES = ("lsq", "mcmc", "both")
+RANK_CHOICES = (
+    "rms_complex",
+    "rms_magnitude",
+    "rms_phase_deg",
+    "redchi",
+    "aicc",
+    "bic",
+    "looic",
+    "waic",
+    "cv_rms_complex",
+    "n_params",
+)
+#: numpy's legacy ``RandomState`` (the MCMC's walkers) takes seeds below 2**32.
+MAX_SEED = 2**32 - 1
 
 
 class _Parser(argparse.ArgumentParser):
@@ -43,17 +62,145 @@ class _UsageError(Exception):
     pass
 
 
+#: Characters that end a line for ``str.splitlines`` (and for many terminals).
+_LINE_BREAKS = re.compile("[\n\r\v\f\x1c\x1d\x1e\x85\u2028\u2029]")
+
+
+def one_line(message: str) -> str:
+    """``message`` on one line: line breaks a user typed into a value are shown escaped."""
+    return _LINE_BREAKS.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), message)
+
+
 def _emit_json(obj):
-    json.dump(clean(obj), sys.stdout, indent=2, allow_nan=False)
+    """Print ``obj`` (already through :func:`fitdf._json.clean`) as strict JSON."""
+    json.dump(obj, sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
+
+
+# ------------------------------------------------------------------ option values
+# argparse ``type=`` functions: a bad value is argparse's one-line usage error (exit 2)
+# naming the option ("argument --seed: ..."). Numbers are ASCII decimals only, as the CSV
+# loader reads them (float() would also take "nan", "1_0" and non-ASCII digits).
+_INT = r"[+-]?[0-9]+"
+_FLOAT = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+MAX_STEPS = 1_000_000  #: longest MCMC chain (per walker) the command line accepts
+SEED_HELP = f"seed of every random choice, 0..{MAX_SEED} (default 0)"
+
+
+def _parse_number(text: str, pattern: str, kind: str):
+    if not re.fullmatch(pattern, text.strip(), flags=re.ASCII):
+        raise argparse.ArgumentTypeError(f"expected {kind}, got {text!r}")
+    try:
+        value = int(text) if pattern is _INT else float(text)
+    except (ValueError, OverflowError):  # e.g. more digits than Python converts
+        raise argparse.ArgumentTypeError(f"expected {kind}, got {text[:40]!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite {kind}, got {text[:40]!r}")
+    return value
+
+
+def seed_value(text: str) -> int:
+    """A seed: an integer 0..2**32-1 (numpy's ``RandomState`` limit)."""
+    value = _parse_number(text, _INT, "an integer seed")
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"a seed is an integer from 0 to {MAX_SEED}, got {text}")
+    return value
+
+
+def count_value(low: int, high: int, what: str):
+    """An integer ``low..high`` (steps, walkers, workers)."""
+
+    def parse(text: str) -> int:
+        value = _parse_number(text, _INT, f"an integer number of {what}")
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(
+                f"the number of {what} must be from {low} to {high}, got {text}"
+            )
+        return value
+
+    parse.__name__ = what  # argparse names the type in some messages
+    return parse
+
+
+def number_value(low: float = -float("inf"), *, strict: bool = False, what: str = "number"):
+    """A finite float ``>= low`` (``> low`` when ``strict``)."""
+
+    def parse(text: str) -> float:
+        value = _parse_number(text, _FLOAT, f"a {what}")
+        if value < low or (strict and value == low):
+            bound = f"{'above' if strict else 'at least'} {low:g}"
+            raise argparse.ArgumentTypeError(f"the {what} must be {bound}, got {text}")
+        return value
+
+    parse.__name__ = what
+    return parse
+
+
+def check_output_folder(option: str, path: str, *, replaced: bool = False) -> Path:
+    """An output folder that can be created or written, named in a one-line error if not.
+
+    ``replaced``: the command replaces the folder as a whole (``fitdf report``), so an
+    existing folder must be empty or a previous report (holding ``results.json``).
+    """
+    if not str(path).strip():
+        raise OptionError(f"{option}: empty path")
+    try:
+        target = Path(path).expanduser().resolve()
+        if target.exists() and not target.is_dir():
+            raise OptionError(f"{option} {path}: is a file, not a folder")
+        if replaced and target.is_dir():
+            if target == target.parent or target == Path.home().resolve():
+                raise OptionError(f"{option} {path}: refusing to replace {target}")
+            if any(target.iterdir()) and not (target / "results.json").is_file():
+                raise OptionError(
+                    f"{option} {path}: an existing folder that is not a fitdf report "
+                    "(the report replaces its folder as a whole); choose a new or empty folder"
+                )
+        # the report writes beside the folder, then renames: the parent must be writable
+        base = target.parent if replaced or not target.exists() else target
+        while not base.exists():
+            base = base.parent
+        if not base.is_dir():
+            raise OptionError(f"{option} {path}: {base} is a file, not a folder")
+        if not os.access(base, os.W_OK | os.X_OK):
+            raise OptionError(f"{option} {path}: no permission to write in {base}")
+    except OptionError:
+        raise
+    except (OSError, ValueError) as exc:  # name too long, NUL byte, unreadable parent, ...
+        raise OptionError(f"{option} {path!r}: not a usable folder ({exc})") from None
+    return target
+
+
+def check_output_file(option: str, path: str) -> Path:
+    """A file the command can write: not a folder, in an existing writable folder."""
+    if not str(path).strip():
+        raise OptionError(f"{option}: empty path")
+    try:
+        target = Path(path).expanduser().resolve()
+        if target.is_dir():
+            raise OptionError(f"{option} {path}: is a folder, not a file")
+        folder = target.parent
+        if not folder.is_dir():
+            what = "is a file" if folder.exists() else "does not exist"
+            raise OptionError(f"{option} {path}: the folder {folder} {what}")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise OptionError(f"{option} {path}: no permission to write in {folder}")
+    except OptionError:
+        raise
+    except (OSError, ValueError) as exc:
+        raise OptionError(f"{option} {path!r}: not a usable file name ({exc})") from None
+    return target
 
 
 # ------------------------------------------------------------------ commands
 def cmd_datasets(args):
+    from fitdf._json import clean
+    from fitdf.data import datasets
+
     table = datasets.summary()
     if args.json:
         _emit_json(
-            {"datasets": datasets.names(), "appendix_b": clean(table.to_dict(orient="records"))}
+            clean({"datasets": datasets.names(), "appendix_b": table.to_dict(orient="records")})
         )
         return 0
     print("Bundled datasets: " + ", ".join(datasets.names()))
@@ -63,6 +210,11 @@ def cmd_datasets(args):
 
 
 def cmd_audit(args):
+    import pandas as pd
+
+    from fitdf._json import clean
+    from fitdf.data import audit, datasets
+
     frame = audit.audit(datasets.load(args.data))
     flagged = frame[frame["flag"] != "ok"]
     factors = audit.block_factors(frame) if "h1_output_v" in frame else None
@@ -109,15 +261,21 @@ def cmd_audit(args):
 
 
 def cmd_models(args):
+    from fitdf._json import clean
+    from fitdf.chains import CHAINS
+    from fitdf.models import MODELS
+
     if args.json:
         _emit_json(
-            {
-                "models": [m.describe() for m in MODELS.values()],
-                "chains": [
-                    {"name": c.name, "title": c.title, "parameters": [p.name for p in c.params]}
-                    for c in CHAINS.values()
-                ],
-            }
+            clean(
+                {
+                    "models": [m.describe() for m in MODELS.values()],
+                    "chains": [
+                        {"name": c.name, "title": c.title, "parameters": [p.name for p in c.params]}
+                        for c in CHAINS.values()
+                    ],
+                }
+            )
         )
         return 0
     for m in MODELS.values():
@@ -157,58 +315,158 @@ def _ranking_text(table):
     return show.to_string(index=False, float_format=lambda v: f"{v:.4g}")
 
 
-def cmd_fit(args):
-    models = args.models or model_names()
-    methods = len(METHOD_CHOICES[args.method])
-    progress = None
-    if not args.quiet and not args.json:
-        progress = tqdm(
-            total=len(models) * len(args.chain) * methods,
-            desc="fitting",
-            file=sys.stderr,
-            disable=None,
-        )
+def _check_models(models, known) -> None:
+    unknown = [m for m in models if m not in known]
+    if unknown:
+        raise OptionError(f"unknown model(s) {', '.join(unknown)}; known: {', '.join(known)}")
+
+
+def _is_folder(item: str, bundled) -> bool:
+    """``item`` names a folder (not a bundled name; "" would be the current folder: not one)."""
+    if not item.strip() or item in bundled:
+        return False
     try:
-        comparison = compare_fits(
-            args.data,
-            models=models,
-            chains=tuple(args.chain),
-            method=args.method,
-            seed=args.seed,
-            rank_by=args.rank_by,
-            cross_validation=not args.no_cv,
-            progress=progress,
-            source_impedance=args.source_impedance,
-            policy=args.policy,
-            n_steps=args.steps,
-            max_steps=args.max_steps,
-            geometry=parse_geometry(args.geometry) if args.geometry else "auto",
-        )
-    finally:
-        if progress is not None:
-            progress.close()
-    table, results, best = comparison.table, comparison.results, comparison.best
-    if args.json:
-        _emit_json(
-            clean(
-                {
-                    "data": str(args.data),
-                    "seed": args.seed,
-                    "rank_by": args.rank_by,
-                    "ranking": table.to_dict(orient="records"),
-                    "fits": [r.to_dict() for r in results],
-                }
+        return Path(item).is_dir()
+    except (OSError, ValueError):  # name too long, NUL byte: the loader names the problem
+        return False
+
+
+def fit_sources(items, bundled) -> tuple[list[str], bool]:
+    """The datasets ``fitdf fit`` ranks: names and CSV paths as given, folders as their ``*.csv``.
+
+    Returns the list and whether it is a batch (several items, or a folder).
+    """
+    sources, batch = [], len(items) > 1
+    for item in items:
+        if not _is_folder(item, bundled):
+            sources.append(item)
+            continue
+        try:
+            found = sorted(
+                str(p) for p in Path(item).iterdir() if p.suffix.lower() == ".csv" and p.is_file()
             )
+        except OSError as exc:
+            reason = exc.strerror or exc
+            raise OptionError(f"{item}: the folder cannot be read ({reason})") from None
+        if not found:
+            raise OptionError(f"{item}: the folder holds no *.csv files")
+        sources += found
+        batch = True
+    return sources, batch
+
+
+def cmd_fit(args):
+    from tqdm.auto import tqdm
+
+    from fitdf._json import clean
+    from fitdf.data import datasets
+    from fitdf.data.cores import parse_geometry
+    from fitdf.inference.api import resolve_data
+    from fitdf.inference.ranking import compare_fits
+    from fitdf.models import model_names
+
+    models = args.models or model_names()
+    _check_models(models, model_names())
+    geometry = parse_geometry(args.geometry) if args.geometry else "auto"
+    sources, batch = fit_sources(args.data, {*datasets.names(), "appendix_b"})
+    # every dataset is read and checked before the first fit: a bad file fails at once,
+    # naming file, row and column, and no fit is wasted
+    rows = [resolve_data(src, args.policy, args.source_impedance) for src in sources]
+    per_fit = len(models) * len(args.chain) * (2 if args.method == "both" else 1)
+    records, summary = [], []
+    for src, fd in zip(sources, rows):
+        progress = None
+        if not args.quiet and not args.json:
+            desc = f"fitting {fd.label}" if batch else "fitting"
+            progress = tqdm(total=per_fit, desc=desc, file=sys.stderr, disable=None)
+        try:
+            comparison = compare_fits(
+                fd,
+                models=models,
+                chains=tuple(args.chain),
+                method=args.method,
+                seed=args.seed,
+                rank_by=args.rank_by,
+                cross_validation=not args.no_cv,
+                progress=progress,
+                n_steps=args.steps,
+                max_steps=args.max_steps,
+                geometry=geometry,
+            )
+        finally:
+            if progress is not None:
+                progress.close()
+        record = {
+            "data": str(src),
+            "seed": args.seed,
+            "rank_by": args.rank_by,
+            "ranking": comparison.table.to_dict(orient="records"),
+            "fits": [r.to_dict() for r in comparison.results],
+        }
+        records.append(clean(record))
+        summary.append(clean(_summary_row(src, comparison)))
+        if not args.json:
+            _print_fit(comparison, args, brief=batch)
+    if args.json:
+        if batch:
+            out = {"seed": args.seed, "rank_by": args.rank_by, "summary": summary}
+            _emit_json({**out, "files": records})
+        else:
+            _emit_json(records[0])
+    elif batch:
+        print(f"\nSummary ({len(summary)} datasets, best by {args.rank_by}):")
+        print(_summary_text(summary))
+    return 0
+
+
+def _summary_row(src, comparison) -> dict:
+    """One dataset's line of the batch summary: its best model and how well it fits."""
+    top, best = comparison.table.iloc[0], comparison.best
+    return {
+        "data": str(src),
+        "best_model": best.model,
+        "chain": best.chain,
+        "method": best.method,
+        "rms_complex": float(top["rms_complex"]),
+        "aicc": float(top["aicc"]),
+        "n_points": int(best.metrics["n_points"]),
+    }
+
+
+def _summary_text(rows) -> str:
+    cols = ("data", "best_model", "chain", "method", "rms_complex", "aicc", "n_points")
+    cells = [
+        [
+            "n/a" if r[c] is None else f"{r[c]:.4g}" if isinstance(r[c], float) else str(r[c])
+            for c in cols
+        ]
+        for r in rows
+    ]
+    widths = [max(len(c), *(len(row[i]) for row in cells)) for i, c in enumerate(cols)]
+    lines = [cols, *cells]
+    return "\n".join(
+        "  ".join(
+            cell.ljust(w) if i < 4 else cell.rjust(w)
+            for i, (cell, w) in enumerate(zip(line, widths))
         )
-        return 0
+        for line in lines
+    )
+
+
+def _print_fit(comparison, args, *, brief: bool) -> None:
+    """The ranking; for a single dataset also the best fit, its material and MCMC checks."""
+    table, results, best = comparison.table, comparison.results, comparison.best
+    if brief:
+        print()
     print(
-        f"Ranking on {results[0].label} ({results[0].metrics['n_points']} rows, seed {args.seed}), "
-        f"ordered by {args.rank_by}:"
+        f"Ranking on {results[0].label} ({results[0].metrics['n_points']} rows, "
+        f"seed {args.seed}), ordered by {args.rank_by}:"
     )
     print(_ranking_text(table))
-    print("\nBest model:")
-    print(best.summary())
-    print(_material_text(best))
+    if not brief:
+        print("\nBest model:")
+        print(best.summary())
+        print(_material_text(best))
     for r in results:
         if r.method == "mcmc":
             d = r.diagnostics
@@ -217,7 +475,6 @@ def cmd_fit(args):
                 f"(steps/tau {d['steps_over_tau']:.0f}, max R-hat {max(d['rhat'].values()):.3f}, "
                 f"min ESS {min(d['ess_bulk'].values()):.0f}, acceptance {d['acceptance_mean']:.2f})"
             )
-    return 0
 
 
 def _material_text(result) -> str:
@@ -245,14 +502,27 @@ def _material_text(result) -> str:
 
 
 def cmd_report(args):
+    from fitdf.report.build import ReportSettings, generate_report
+
     out = generate_report(
-        out_dir=args.out, seed=args.seed, quick=args.quick, progress=not args.quiet
+        out_dir=args.out,
+        seed=args.seed,
+        quick=args.quick,
+        progress=not args.quiet,
+        settings=ReportSettings.for_run(args.quick, scheduler=args.scheduler),
     )
     print(f"report written to {out}/ (README.md, index.html, results.json, figures/)")
     return 0
 
 
 def cmd_limit_cycle(args):
+    from fitdf._json import clean
+    from fitdf.loop.fitted import fitted_limit_cycles
+    from fitdf.models import model_names
+    from fitdf.plots.limit_cycles import plot_nyquist
+
+    if args.model is not None:
+        _check_models([args.model], model_names())
     found = fitted_limit_cycles(
         args.data,
         args.plant,
@@ -273,7 +543,7 @@ def cmd_limit_cycle(args):
             raise OptionError(f"cannot write the figure to {args.plot}: {exc}") from exc
     result = found.to_dict()
     if args.json:
-        _emit_json(result)
+        _emit_json(clean(result))
         return 0
     print(format_limit_cycle_table(result))
     if args.plot:
@@ -314,6 +584,7 @@ def format_limit_cycle_table(result: dict) -> str:
             f"Oscillations die out below gain {crit:.4g}; the first cycle appears at "
             f"A = {point.get('amplitude'):.3g} V, omega = {point.get('omega'):.3g} rad/s{where}."
         )
+    lines += [f"Warning: {w}." for w in result.get("warnings", ())]
     return "\n".join(lines)
 
 
@@ -375,18 +646,23 @@ def build_parser() -> argparse.ArgumentParser:
             "fitdf fit permalloy",
             "fitdf fit B.3 --method both --steps 2000",
             "fitdf fit deltamax --source-impedance 600 --models constant_width rayleigh --json",
+            "fitdf fit core1.csv core2.csv --method lsq   # a summary table after the rankings",
+            "fitdf fit measurements/ --json               # every *.csv of the folder",
         ],
     )
     sp.add_argument(
-        "data", help="core name (permalloy, deltamax, supermalloy), table (B.1..B.5) or CSV path"
+        "data",
+        nargs="+",
+        help="core name (permalloy, deltamax, supermalloy), table (B.1..B.5), CSV path or a "
+        "folder of CSV files; several (or a folder) are ranked one by one, then summarised",
     )
-    sp.add_argument("--method", choices=["lsq", "mcmc", "both"], default="lsq")
+    sp.add_argument("--method", choices=METHOD_CHOICES, default="lsq")
     sp.add_argument("--models", nargs="+", metavar="MODEL", help="models to fit (default: all)")
     sp.add_argument(
         "--chain",
         nargs="+",
         default=[DEFAULT_CHAIN],
-        choices=chain_names(),
+        choices=CHAIN_CHOICES,
         help=f"measurement chain(s) (default: {DEFAULT_CHAIN}; winding is its sinusoidal-current "
         "approximation)",
     )
@@ -400,22 +676,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sp.add_argument(
         "--source-impedance",
-        type=float,
+        type=number_value(0.0, what="source impedance"),
         default=None,
         metavar="OHM",
         help="only rows at this source impedance (default: all, fitted jointly)",
     )
-    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--seed", type=seed_value, default=0, help=SEED_HELP)
     sp.add_argument(
-        "--steps", type=int, default=1000, help="minimum MCMC steps per walker (default 1000)"
+        "--steps",
+        type=count_value(50, MAX_STEPS, "steps"),
+        default=1000,
+        help="minimum MCMC steps per walker (default 1000)",
     )
     sp.add_argument(
         "--max-steps",
-        type=int,
+        type=count_value(50, MAX_STEPS, "steps"),
         default=5000,
         help="extend the chain up to this many steps until it is 50 autocorrelation times long",
     )
-    sp.add_argument("--rank-by", default="rms_complex", choices=list(RANK_COLUMNS))
+    sp.add_argument("--rank-by", default="rms_complex", choices=RANK_CHOICES)
     sp.add_argument(
         "--policy",
         default="default",
@@ -435,8 +714,15 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument(
         "--out", default="reports", metavar="DIR", help="output folder (default: reports)"
     )
-    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--seed", type=seed_value, default=0, help=SEED_HELP)
     sp.add_argument("--quick", action="store_true", help="least squares only, for a fast look")
+    sp.add_argument(
+        "--scheduler",
+        default=os.environ.get("FITDF_SCHEDULER") or None,
+        metavar="ADDRESS",
+        help="run the fits on this Dask cluster, e.g. tcp://host:8786 (default: the "
+        "FITDF_SCHEDULER environment variable, else local processes; needs fitdf[dask])",
+    )
 
     sp = add(
         "limit-cycle",
@@ -458,11 +744,16 @@ def build_parser() -> argparse.ArgumentParser:
         help='transfer function in s, with K for the gain, e.g. "K/((1+s)(1+0.25s)(1+1.1s))"',
     )
     sp.add_argument(
-        "--gain", type=float, nargs="+", default=[1.0], metavar="K", help="loop gain(s) K"
+        "--gain",
+        type=number_value(0.0, strict=True, what="gain"),
+        nargs="+",
+        default=[1.0],
+        metavar="K",
+        help="loop gain(s) K",
     )
     sp.add_argument(
         "--source-impedance",
-        type=float,
+        type=number_value(0.0, what="source impedance"),
         default=None,
         metavar="OHM",
         help="rows and DF at this source impedance (default: the data's only one)",
@@ -472,13 +763,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sp.add_argument(
         "--time-scale",
-        type=float,
+        type=number_value(0.0, strict=True, what="time scale"),
         default=1.0,
         metavar="ALPHA",
         help="run the plant as G(s/ALPHA), e.g. for a time-scaled analog computer (default 1)",
     )
-    sp.add_argument("--chain", default=DEFAULT_CHAIN, choices=chain_names())
-    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--chain", default=DEFAULT_CHAIN, choices=CHAIN_CHOICES)
+    sp.add_argument("--seed", type=seed_value, default=0, help=SEED_HELP)
     sp.add_argument(
         "--plot", default=None, metavar="FILE.png", help="write the Nyquist-plane figure"
     )
@@ -486,18 +777,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _validate(args):
-    if getattr(args, "model", None) and args.model not in model_names():
-        raise OptionError(f"unknown model {args.model!r}; known: {', '.join(model_names())}")
-    if getattr(args, "models", None):
-        unknown = [m for m in args.models if m not in model_names()]
-        if unknown:
-            raise OptionError(
-                f"unknown model(s) {', '.join(unknown)}; known: {', '.join(model_names())}"
-            )
-    if getattr(args, "steps", None) is not None and args.steps < 50:
-        raise OptionError("--steps must be at least 50")
-    if getattr(args, "time_scale", 1.0) <= 0:
-        raise OptionError("--time-scale must be positive")
+    """Checks before anything is imported or computed (each value alone passed its ``type=``).
+
+    Output paths are checked here, not when the output is written after minutes of fitting.
+    """
+    if args.command == "report":
+        check_output_folder("--out", args.out, replaced=True)
+    if getattr(args, "plot", None) is not None:
+        check_output_file("--plot", args.plot)
     if getattr(args, "max_steps", None) is not None and args.max_steps < args.steps:
         raise OptionError("--max-steps must be at least --steps")
     if (
@@ -507,25 +794,56 @@ def _validate(args):
         raise OptionError(f"--rank-by {args.rank_by} needs --method mcmc or both")
 
 
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports it
+EXIT_TERMINATED = 143  # 128 + SIGTERM
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that it is cleaned up like Ctrl-C (a report's
+    workers stopped, its temporary folder removed, the previous report kept)."""
+
+
+def _raise_terminated(signum, frame):
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a second SIGTERM ends the process at once
+    raise Terminated
+
+
+def _stopped_message(args, exc: BaseException) -> str:
+    """The one line after Ctrl-C or SIGTERM: what was kept."""
+    what = "terminated" if isinstance(exc, Terminated) else "interrupted"
+    if args.command == "report":
+        out = str(args.out).rstrip("/") or str(args.out)
+        if Path(args.out).is_dir():  # the report is written atomically: still the old one
+            return f"fitdf: {what}; {out}/ left as it was"
+        return f"fitdf: {what}; no report written to {out}/"
+    if args.command == "fit":
+        return f"fitdf: {what}; no results printed"
+    return f"fitdf: {what}"
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except _UsageError as exc:
-        print(str(exc), file=sys.stderr)
+        print(one_line(str(exc)), file=sys.stderr)
         return EXIT_USAGE
     if not getattr(args, "command", None):
         parser.print_help()
         return EXIT_USAGE
+    try:  # SIGTERM as an exception (main thread only; restored on the way out)
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    except ValueError:
+        previous = False
     try:
         _validate(args)
         return args.func(args)
     except FitdfError as exc:
-        print(f"fitdf {args.command}: error: {exc}", file=sys.stderr)
+        print(one_line(f"fitdf {args.command}: error: {exc}"), file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("fitdf: interrupted", file=sys.stderr)
-        return 130
+    except (KeyboardInterrupt, Terminated) as exc:
+        print(_stopped_message(args, exc), file=sys.stderr)
+        return EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
     except Exception as exc:  # an internal failure, not the user's
         if args.debug:
             traceback.print_exc()
@@ -535,6 +853,9 @@ def main(argv=None) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERNAL
+    finally:
+        if previous is not False:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import pytest
+from synthetic import synthetic_frame
 
 FITDF = shutil.which("fitdf") or os.path.join(os.path.dirname(sys.executable), "fitdf")
 
@@ -185,3 +186,110 @@ def test_limit_cycle_command_prints_table_json_and_plot(tmp_path):
 )
 def test_limit_cycle_user_errors(args, fragments):
     assert_user_error(run(*args), *fragments)
+
+
+# ------------------------------------------------------------------ batch fitting
+def _write_cores(folder, n=2):
+    """``n`` small synthetic cores (constant-width law, winding chain) as CSV files."""
+    folder.mkdir(exist_ok=True)
+    paths = []
+    for i in range(n):
+        truth = {"k": 60.0 + 30.0 * i, "b": 2e-4, "c": 0.04, "r_winding": 100.0, "gain": 0.95}
+        frame = synthetic_frame(
+            "constant_width",
+            truth,
+            chain="winding",
+            seed=i,
+            frequencies=(3.0, 10.0),
+            amplitudes=[0.2, 0.5, 1.0, 2.0, 3.0, 4.0],
+        )
+        path = folder / f"core{i}.csv"
+        frame.to_csv(path, index=False)
+        paths.append(path)
+    return paths
+
+
+FAST_FIT = ("--method", "lsq", "--chain", "winding", "--models", "constant_width", "--no-cv")
+
+
+def test_fit_batch_ranks_each_file_then_summarises(tmp_path):
+    a, b = _write_cores(tmp_path / "cores")
+    (tmp_path / "cores" / "notes.txt").write_text("not a CSV: ignored\n")
+    p = run("fit", str(tmp_path / "cores"), *FAST_FIT, "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.count("Ranking on") == 2
+    summary = p.stdout.split("Summary (2 datasets")[1].splitlines()[1:]
+    assert summary[0].split()[:3] == ["data", "best_model", "chain"]
+    assert [line.split()[0] for line in summary[1:3]] == [str(a), str(b)]  # sorted, full path
+    assert all(line.split()[1] == "constant_width" for line in summary[1:3])
+    j = run("fit", str(b), str(a), *FAST_FIT, "--json")
+    assert j.returncode == 0, j.stderr
+    out = json.loads(j.stdout)
+    assert [f["data"] for f in out["files"]] == [str(b), str(a)]  # as given
+    for row, f in zip(out["summary"], out["files"]):
+        assert row["best_model"] == f["ranking"][0]["model"] == "constant_width"
+        assert row["rms_complex"] == f["ranking"][0]["rms_complex"] and row["n_points"] == 12
+
+
+def test_fit_batch_checks_every_file_before_fitting(tmp_path):
+    (good,) = _write_cores(tmp_path / "cores", n=1)
+    bad = tmp_path / "cores" / "zz_bad.csv"
+    bad.write_text("input_v,frequency_hz,df_reported,phase_lead_deg\n0.5,10,abc,3\n")
+    p = run("fit", str(tmp_path / "cores"), *FAST_FIT)
+    assert_user_error(p, "zz_bad.csv", "df_reported")  # file and column named
+    assert p.stdout == ""  # nothing fitted: the bad file was found first
+    assert_user_error(run("fit", str(good), str(tmp_path / "nope.csv"), *FAST_FIT), "nope.csv")
+    empty = tmp_path / "empty_folder"
+    empty.mkdir()
+    assert_user_error(run("fit", str(empty)), "no *.csv")
+
+
+# ------------------------------------------------------------------ clean edges
+@pytest.mark.parametrize(
+    "args, fragments",
+    [
+        (("fit", "B.3", "--seed", "-1"), ["--seed", "-1"]),
+        (("fit", "B.3", "--seed", str(2**32)), ["--seed"]),
+        (("fit", "B.3", "--steps", "1e3"), ["--steps"]),
+        (("fit", "B.3", "--source-impedance", "nan"), ["--source-impedance"]),
+        (("fit", "B.3", "--geometry", "x" * 5000), ["geometry"]),
+        (("fit", "y" * 5000), ["not a usable file name"]),
+        (("report", "--seed", "-3"), ["--seed"]),
+        (("limit-cycle", "B.1", "--plant", "K/(1+s)", "--gain", "-1"), ["--gain"]),
+        (("limit-cycle", "B.1", "--plant", "K/(1+s)", "--gain", "inf"), ["--gain"]),
+        (("datasets", "\n"), ["unrecognized"]),  # a line break in a value stays on one line
+    ],
+)
+def test_bad_option_values_are_one_line_and_exit_2(args, fragments):
+    assert_user_error(run(*args), *fragments)
+
+
+def test_report_out_must_be_a_usable_folder(tmp_path):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    assert_user_error(run("report", "--quick", "--out", str(a_file)), "--out", "not a folder")
+    assert_user_error(run("report", "--quick", "--out", str(a_file / "sub")), "--out", "a_file")
+    keep = tmp_path / "mine"
+    keep.mkdir()
+    (keep / "thesis.tex").write_text("precious")
+    assert_user_error(run("report", "--quick", "--out", str(keep)), "not a fitdf report")
+    assert (keep / "thesis.tex").read_text() == "precious"
+    if os.geteuid() != 0:  # root writes anywhere
+        locked = tmp_path / "locked"
+        locked.mkdir()
+        locked.chmod(0o500)
+        try:
+            assert_user_error(run("report", "--out", str(locked / "r")), "--out", "permission")
+        finally:
+            locked.chmod(0o700)
+
+
+def test_limit_cycle_warns_of_an_unstable_plant(tmp_path):
+    args = ("limit-cycle", "B.3", "--plant", "K/(s-1)", "--gain", "10")
+    fast = ("--model", "constant_width", "--chain", "winding")
+    p = run(*args, *fast)
+    assert p.returncode == 0, p.stderr
+    assert "Warning: the plant is unstable in open loop" in p.stdout
+    assert "does not mean the loop is stable" in p.stdout
+    j = json.loads(run(*args, *fast, "--json").stdout)
+    assert len(j["warnings"]) == 1 and "unstable" in j["warnings"][0]

@@ -34,7 +34,8 @@ USER_CSV = "input_v,frequency_hz,df_reported,phase_lead_deg,source_impedance_ohm
     for v, d, ph in ((0.2, 0.5, 30), (0.5, 0.7, 15), (1.0, 0.8, 8), (2.0, 0.6, 20), (3.0, 0.45, 35))
 )
 
-#: (case id, schema file, command line after ``fitdf``); ``{csv}`` is the user CSV above.
+#: (case id, schema file, command line after ``fitdf``); ``{csv}`` is the user CSV above,
+#: ``{dir}`` the folder holding it (and nothing else).
 COMMANDS = [
     ("datasets", "fitdf-datasets.schema.json", ["datasets", "--json"]),
     ("audit-B.1", "fitdf-audit.schema.json", ["audit", "B.1", "--json"]),
@@ -59,6 +60,21 @@ COMMANDS = [
             "50",
             "--max-steps",
             "50",
+            "--no-cv",
+            "--json",
+        ],
+    ),
+    (
+        "fit-batch",
+        "fitdf-fit-batch.schema.json",
+        [
+            "fit",
+            "{dir}",
+            "{csv}",
+            "--models",
+            "constant_width",
+            "--chain",
+            "winding",
             "--no-cv",
             "--json",
         ],
@@ -117,6 +133,7 @@ SCHEMA_FILES = [
     "fitdf-audit.schema.json",
     "fitdf-models.schema.json",
     "fitdf-fit.schema.json",
+    "fitdf-fit-batch.schema.json",
     "fitdf-limit-cycle.schema.json",
     "results.schema.json",
 ]
@@ -183,7 +200,10 @@ def cli_outputs(tmp_path_factory) -> dict:
     """Every command of COMMANDS, two at a time (each is mostly start-up and one small fit)."""
     csv = tmp_path_factory.mktemp("csv") / "mycore.csv"
     csv.write_text(USER_CSV)
-    argv = {case: [a.replace("{csv}", str(csv)) for a in args] for case, _, args in COMMANDS}
+    argv = {
+        case: [a.replace("{csv}", str(csv)).replace("{dir}", str(csv.parent)) for a in args]
+        for case, _, args in COMMANDS
+    }
     with ThreadPoolExecutor(max_workers=2) as pool:
         done = dict(zip(argv, pool.map(_run, argv.values())))
     return done
@@ -203,6 +223,11 @@ def test_cli_json_matches_schema(cli_outputs, case, schema):
         assert {f["method"] for f in out["fits"]} == {"lsq", "mcmc"}
     if case == "audit-csv":
         assert out["rows"] == 10
+    if case == "fit-batch":  # the folder's one CSV, then the same file named directly
+        assert [f["data"] for f in out["files"]] == [r["data"] for r in out["summary"]]
+        assert len(out["files"]) == 2 and out["files"][0]["data"].endswith("mycore.csv")
+    if case == "limit-cycle":  # an ordinary plant: nothing to warn about
+        assert out["warnings"] == []
 
 
 def _drop(obj: dict, path: tuple):
@@ -227,7 +252,11 @@ def _drop(obj: dict, path: tuple):
         ("fit-B.1", "fitdf-fit.schema.json", ("fits", 0, "parameters", 0, "value")),
         ("fit-B.1", "fitdf-fit.schema.json", ("fits", 0, "appendix_a_check", 0, "inside")),
         ("fit-csv-mcmc", "fitdf-fit.schema.json", ("fits", 1, "diagnostics")),
+        ("fit-batch", "fitdf-fit-batch.schema.json", ("summary", 0, "aicc")),
+        ("fit-batch", "fitdf-fit-batch.schema.json", ("files", 0, "ranking")),
+        ("fit-batch", "fitdf-fit-batch.schema.json", ("files", 1, "fits", 0, "parameters")),
         ("limit-cycle", "fitdf-limit-cycle.schema.json", ("critical_gain",)),
+        ("limit-cycle", "fitdf-limit-cycle.schema.json", ("warnings",)),
         ("limit-cycle", "fitdf-limit-cycle.schema.json", ("intersections", 0, "amplitude")),
     ],
 )
@@ -236,6 +265,15 @@ def test_a_missing_required_key_fails(cli_outputs, case, schema, path):
     assert errors(schema, out) == []
     broken = _drop(out, path)
     assert errors(schema, broken), f"{schema} accepts the output without {'/'.join(map(str, path))}"
+
+
+def test_batch_schema_holds_the_single_fit_schema():
+    """Each dataset of a batch is exactly a ``fitdf fit DATA --json`` output: the same schema."""
+    single, batch = load_schema("fitdf-fit.schema.json"), load_schema("fitdf-fit-batch.schema.json")
+    per_file = batch["$defs"]["fit_output"]
+    for key in ("properties", "required", "additionalProperties"):
+        assert per_file[key] == single[key], key
+    assert set(single["$defs"]) <= set(batch["$defs"])
 
 
 def test_fit_schema_checks_the_new_keys_when_present(cli_outputs):

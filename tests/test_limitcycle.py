@@ -321,3 +321,53 @@ def test_thesis_comparison_runs():
     assert live["amplitude_pred"].notna().mean() > 0.5
     fig = plot_thesis_comparison(df)
     assert len(fig.axes) == 4
+
+
+# ------------------------------------------------------------------ when harmonic balance says nothing
+@pytest.mark.parametrize("plant", [PLANT, "K/((1+s)(1+0.25s)(1+1.1s))", "K/(s^2+s+1)"])
+def test_an_ordinary_plant_gets_no_warning(plant):
+    r = limit_cycles(plant, relay(), gains=[1.0, 5.0], amplitude_range=(0.11, 10))
+    assert r.warnings == () and r.to_dict()["warnings"] == []
+
+
+@pytest.mark.parametrize(
+    ("plant", "pole"), [("K/(s-1)", "s = 1"), ("K/((s+2)(s^2-0.2s+4))", "s = 0.1+1.997j")]
+)
+def test_an_open_loop_unstable_plant_is_flagged(plant, pole):
+    """No cycle found does not mean a stable loop: the answer says so."""
+    r = limit_cycles(plant, relay(), gains=[10.0], amplitude_range=(0.11, 10))
+    assert len(r.warnings) == 1, r.warnings
+    assert "unstable in open loop" in r.warnings[0] and pole in r.warnings[0]
+    assert "does not mean the loop is stable" in r.warnings[0]
+    assert r.to_dict()["warnings"] == list(r.warnings)
+
+
+@pytest.mark.parametrize("plant", ["K(s+2)/(s+1)", "K(s^2+1)/(s+3)", "K"])
+def test_a_plant_that_is_not_low_pass_is_flagged(plant):
+    r = limit_cycles(plant, relay(), gains=[1.0], amplitude_range=(0.11, 10))
+    assert any("not low-pass" in w and "filter" in w for w in r.warnings), r.warnings
+
+
+def test_a_cycle_whose_third_harmonic_passes_is_flagged():
+    """A lightly damped resonance at three times the cycle's frequency amplifies the harmonic."""
+    resonant = "10K/(s(s+1)(s+2)(s^2+0.126s+10))"  # |G| peaks at omega = 3.16
+    r = limit_cycles(resonant, relay(), gains=[1.0], amplitude_range=(0.11, 10))
+    (c,) = r.intersections
+    assert c.omega == pytest.approx(1.066, rel=0.01)
+    assert len(r.warnings) == 1 and "third harmonic" in r.warnings[0]
+    plain = limit_cycles(PLANT, relay(), gains=[1.0], amplitude_range=(0.11, 10))
+    assert plain.intersections and plain.warnings == ()
+
+
+def test_limit_cycle_table_prints_the_warnings():
+    r = limit_cycles("K/(s-1)", relay(), gains=[10.0], amplitude_range=(0.11, 10))
+    record = {
+        **r.to_dict(),
+        "model": "relay",
+        "chain": "none",
+        "data": "closed form",
+        "source_impedance_ohm": 0.0,
+    }
+    text = format_limit_cycle_table(record)
+    assert f"{10:>10.4g} {'none':>12s}" in text  # no cycle at K = 10 ...
+    assert text.splitlines()[-1].startswith("Warning: the plant is unstable in open loop")

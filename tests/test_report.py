@@ -12,6 +12,7 @@ import pytest
 import fitdf.report.outline as outline
 import fitdf.report.render as render
 import fitdf.report.sections as sections
+from fitdf.plots.summary import CAPTION, constant_rows, plot_summary, residual_grid
 from fitdf.report.build import BLOCKS, ReportSettings, generate_report
 
 REPO = Path(__file__).resolve().parents[1]
@@ -118,6 +119,51 @@ def test_html_is_self_contained(tiny_report):
     md_images = (tiny_report / "README.md").read_text().count("![")
     assert len(imgs) == md_images
     assert page.count("<table") >= 10
+
+
+def _image_links(markdown: str) -> list[str]:
+    return re.findall(r"!\[[^\]]*\]\(([^)]+)\)", markdown)
+
+
+def test_report_opens_with_the_summary_figure(tiny_report, tiny_results):
+    path = tiny_results["summary_figure"]
+    assert path == "figures/summary.png" and (tiny_report / path).stat().st_size > 10_000
+    md = (tiny_report / "README.md").read_text()
+    assert _image_links(md)[0] == path  # the first figure, right after the title and intro
+    assert md.index(path) < md.index("## Contents") and CAPTION in md
+    page = (tiny_report / "index.html").read_text()
+    assert re.search(r'<img src="[^"]*" alt="([^"]*)"', page).group(1).startswith("summary")
+    # the figure draws the record's residuals and marks each block's best law
+    grid = residual_grid(tiny_results)
+    assert grid.blocks == list(TINY.blocks)
+    for j, key in enumerate(grid.blocks):
+        ranking = tiny_results["blocks"][key]["ranking_lsq"]
+        for row in ranking:
+            assert grid.rms[grid.laws.index(row["model"]), j] == row["rms_complex"]
+        assert grid.laws[grid.best[j]] == ranking[0]["model"]
+    fig = plot_summary(tiny_results)
+    np.testing.assert_array_equal(np.asarray(fig.axes[0].images[0].get_array()), grid.rms)
+    rows = constant_rows(tiny_results)  # the fits' Appendix A checks are on the right
+    assert rows and {r["core"] for r in rows} == {"permalloy"}
+    assert len(fig.axes) == 2 + len({r["quantity"] for r in rows})
+    # the top-level README shows the figure the report writes
+    top = (REPO / "README.md").read_text(encoding="utf-8")
+    assert _image_links(top)[0] == f"reports/{path}"
+
+
+def test_html_nav_bar_links_resolve(tiny_report):
+    page = (tiny_report / "index.html").read_text()
+    nav = re.search(r'<nav class="sections"[^>]*>(.*?)</nav>', page, re.S)
+    assert nav and page.index("<nav") < page.index("<h1")
+    ids = set(re.findall(r'\sid="([^"]+)"', page))
+    targets = re.findall(r'href="#([^"]+)"', nav.group(1))
+    assert targets and set(targets) <= ids, set(targets) - ids
+    labels = re.findall(r">([^<]+)</a>", nav.group(1))
+    for label in ("Overview", "Summary", "B.1", "B.1+B.3", "Cross-impedance", "Limit cycles"):
+        assert label in labels, label
+    assert {"Audit", "Thesis graphs"} <= set(labels)
+    assert set(re.findall(r'href="#([^"]+)"', page)) <= ids  # every in-page link resolves
+    assert re.search(r"nav\.sections\{position:sticky;top:0", page)
 
 
 def test_results_json_holds_rankings_and_settings(tiny_results):

@@ -6,13 +6,17 @@ output, not a committed file.
 Checks what can be checked from outside the browser: the DOM Chromium builds holds the
 ranking tables and every figure of results.json as a ``data:`` PNG (each decodes as a
 valid PNG), nothing points outside the file, the browser logs no page errors, and the
-screenshots show content (kept in ``test-artifacts/`` for a human to look at). Skipped,
-with the reason, where Chromium is not installed.
+screenshots show content (kept in ``test-artifacts/`` for a human to look at). The page
+has no script; what only the browser knows (the summary image decoded, the navigation bar
+laid out and still at the top after scrolling) is read by a probe script added to a copy
+of the page, whose answer ``--dump-dom`` returns. Skipped, with the reason, where Chromium
+is not installed.
 """
 
 from __future__ import annotations
 
 import base64
+import html
 import io
 import json
 import re
@@ -83,7 +87,8 @@ def report(tmp_path_factory) -> Path:
 
 def _figure_paths(results: dict) -> list[str]:
     """Every figure results.json lists (each must be embedded in index.html)."""
-    paths = [p for rec in results["blocks"].values() for p in rec["figures"].values() if p]
+    paths = [results["summary_figure"]] if results.get("summary_figure") else []
+    paths += [p for rec in results["blocks"].values() for p in rec["figures"].values() if p]
     paths += [g["path"] for g in results["thesis_graphs"]]
     paths += [c["figure"] for c in results["cross_impedance"] if c.get("figure")]
     if results["limit_cycles"].get("figure"):
@@ -185,3 +190,82 @@ def test_screenshots_show_the_report(report, tmp_path):
     rgb = (image.imread(tall)[2000:, :, :3] * 255).astype(int)
     colours = np.unique(rgb.reshape(-1, 3)[::7], axis=0)
     assert len(colours) > 200  # figures (colour curves, bands) were rendered
+
+
+#: Appended to a copy of index.html: reports, after the page loaded, what the browser made
+#: of the summary image and the navigation bar (before and after scrolling 4000 px).
+_PROBE = """<script>
+window.addEventListener("load", () => {
+  const img = document.querySelector("img");
+  const nav = document.querySelector("nav.sections");
+  const top = nav.getBoundingClientRect();
+  const hrefs = [...nav.querySelectorAll("a")].map((a) => a.getAttribute("href").slice(1));
+  window.scrollTo(0, 4000);
+  const scrolled = nav.getBoundingClientRect();
+  document.body.setAttribute("data-probe", JSON.stringify({
+    alt: img.alt, naturalWidth: img.naturalWidth, naturalHeight: img.naturalHeight,
+    shownWidth: img.getBoundingClientRect().width,
+    imgTop: img.getBoundingClientRect().top + window.scrollY,
+    navTop: top.top, navHeight: top.height, navWidth: top.width,
+    navTopScrolled: scrolled.top, scrollY: window.scrollY,
+    position: getComputedStyle(nav).position,
+    missing: hrefs.filter((id) => !document.getElementById(id)), links: hrefs.length,
+  }));
+});
+</script></body>"""
+
+
+@pytest.fixture(scope="module")
+def probe(report, tmp_path_factory) -> dict:
+    tmp = tmp_path_factory.mktemp("probe")
+    page = tmp / "probe.html"
+    page.write_text(report.read_text(encoding="utf-8").replace("</body>", _PROBE), encoding="utf-8")
+    proc = _run(tmp, "--window-size=1280,900", "--dump-dom", page.as_uri())
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    found = re.search(r'data-probe="([^"]*)"', proc.stdout)
+    assert found, "the probe script did not run"
+    return json.loads(html.unescape(found.group(1)))
+
+
+@needs
+def test_summary_figure_loads_first(probe, results):
+    assert probe["alt"].startswith("summary")  # the first image of the page
+    assert probe["naturalWidth"] > 300 and probe["naturalHeight"] > 200  # decoded
+    assert probe["shownWidth"] > 600  # and drawn large, not a thumbnail
+    assert probe["imgTop"] < 400  # right under the title and intro: no scrolling to reach it
+    assert results["summary_figure"] == "figures/summary.png"
+
+
+@needs
+def test_nav_bar_is_visible_and_sticky(probe):
+    assert probe["position"] == "sticky"
+    assert probe["navHeight"] > 10 and probe["navWidth"] > 600 and probe["navTop"] < 60
+    assert probe["scrollY"] > 1000 and abs(probe["navTopScrolled"]) < 1  # still at the top
+    assert probe["links"] >= 8 and probe["missing"] == []
+
+
+@needs
+def test_screenshot_of_the_top_shows_figure_and_nav(report, tmp_path):
+    """The top of the page as a reader first sees it (kept for a human to look at), and the
+    page scrolled down inside a scrolling body (headless screenshots do not keep a window
+    scroll): the bar must still be there."""
+    from matplotlib import image
+
+    top = _screenshot(tmp_path, report.as_uri(), "report_summary_top.png", 1000)
+    rgb = (image.imread(top)[..., :3] * 255).astype(int)
+    assert len(np.unique(rgb.reshape(-1, 3)[::5], axis=0)) > 200  # the colour grid is drawn
+    scrolled = tmp_path / "scrolled.html"
+    scrolled.write_text(
+        report.read_text(encoding="utf-8").replace(
+            "</body>",
+            "<style>html{height:100%;overflow:hidden}body{height:100%;overflow:auto;"
+            "box-sizing:border-box;padding-top:0}</style><script>window.addEventListener("
+            '"load", () => { document.body.scrollTop = 5000; });</script></body>',
+        ),
+        encoding="utf-8",
+    )
+    shot = _screenshot(tmp_path, scrolled.as_uri(), "report_scrolled_nav.png", 500)
+    band = image.imread(shot)[:40, :, :3]
+    ink = np.any(band < 0.6, axis=-1)
+    blue = (band[..., 2] > 0.6) & (band[..., 0] < 0.3)  # link colour #0b57d0
+    assert ink.mean() > 0.01 and blue.sum() > 200  # the bar's links, at the top of the window

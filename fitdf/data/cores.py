@@ -443,9 +443,16 @@ def parse_geometry(text: str, name: str = "user core") -> CoreGeometry:
     raw = str(text)
     source = "geometry"
     path = Path(raw)
-    if "=" not in raw and path.is_file():
-        source = str(path)
-        raw = "\n".join(line.split("#", 1)[0] for line in path.read_text().splitlines())
+    try:
+        is_file = "=" not in raw and path.is_file()
+        if is_file:
+            source = str(path)
+            text = path.read_text(encoding="utf-8")
+            raw = "\n".join(line.split("#", 1)[0] for line in text.splitlines())
+    except (OSError, UnicodeDecodeError) as exc:  # name too long, unreadable, not text
+        shown = raw if len(raw) <= 80 else raw[:77] + "..."
+        reason = getattr(exc, "strerror", None) or exc
+        raise OptionError(f"geometry {shown}: cannot be read ({reason})") from None
     pairs = {}
     for item in raw.replace("\n", ",").split(","):
         if not item.strip():

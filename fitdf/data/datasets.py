@@ -187,7 +187,12 @@ def load(name_or_path) -> pd.DataFrame:
         if key in _OTHER:
             return _bundled_other(key).copy()
     path = Path(key)
-    if not path.exists():
+    try:
+        exists = path.exists()
+    except OSError as exc:  # a name too long for the file system, ...
+        shown = key if len(key) <= 80 else key[:77] + "..."
+        raise DataError(f"{shown}: not a usable file name ({exc.strerror or exc})") from None
+    if not exists:
         looks_like_path = key.lower().endswith((".csv", ".txt")) or os.sep in key or "/" in key
         if looks_like_path:
             raise DataError(f"{key}: file not found (nor a bundled dataset: {', '.join(names())})")

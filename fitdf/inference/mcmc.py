@@ -27,11 +27,11 @@ from __future__ import annotations
 
 import warnings
 
-import arviz as az
 import emcee
 import numpy as np
 import pandas as pd
 
+from fitdf._arviz import az
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, PosteriorResult, residual_table
@@ -213,6 +213,9 @@ def fit_mcmc(
     p0 = _initial_ball(problem, lsq, n_walkers, rng, logpost.bounds)
     moves = moves if moves is not None else default_moves()
     sampler = emcee.EnsembleSampler(n_walkers, ndim, logpost, vectorize=True, moves=moves)
+    # emcee's wrapper of the log-probability prints a traceback for any exception, Ctrl-C and
+    # SIGTERM included (the command line stops with one line); it only adds args we don't use
+    sampler.log_prob_fn = logpost
     sampler.random_state = np.random.RandomState(seed).get_state()
     max_steps = max(n_steps, max_steps or n_steps)
     state = sampler.run_mcmc(p0, n_steps, progress=progress)

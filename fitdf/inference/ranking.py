@@ -22,11 +22,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import arviz as az
 import numpy as np
 import pandas as pd
 import xarray as xr
 
+from fitdf._arviz import az
 from fitdf.chains import get_chain
 from fitdf.data.cores import winding_resistance_estimate
 from fitdf.errors import OptionError

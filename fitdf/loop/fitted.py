@@ -90,8 +90,9 @@ def fitted_limit_cycles(
         Least-squares starts per model.
     """
     lp = as_loop_plant(plant, time_scale)  # a bad plant fails now, before any fitting
+    rows = resolve_data(data, source_impedance=source_impedance)  # and so do bad data
     if source_impedance is None:  # one impedance in the data: use it; several: the user must choose
-        found = sorted(set(resolve_data(data).source_impedance.tolist()))
+        found = sorted(set(rows.source_impedance.tolist()))
         if len(found) != 1:
             raise OptionError(
                 f"{data}: rows at several source impedances ({', '.join(f'{r:g}' for r in found)} "

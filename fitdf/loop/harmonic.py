@@ -48,6 +48,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from fitdf.errors import OptionError
+from fitdf.loop.assumptions import plant_warnings
 from fitdf.loop.critical import _critical
 from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
 from fitdf.loop.plant import LoopPlant, as_loop_plant
@@ -279,6 +280,8 @@ def limit_cycles(
     Returns
     -------
     LimitCycleResponse
+        Its ``warnings`` say when the plant breaks the hypotheses of harmonic balance
+        (open-loop unstable, not low-pass: :mod:`fitdf.loop.assumptions`).
 
     Examples
     --------
@@ -321,4 +324,5 @@ def limit_cycles(
         omega_range=(float(w_grid[0]), float(w_grid[-1])),
         plant=lp,
         describing_function=N,
+        warnings=plant_warnings(lp, gains, found),
     )

@@ -88,6 +88,9 @@ class LimitCycleResponse:
         (True when that is an edge of the amplitude box: the cycle then shrinks to the
         edge rather than appearing as a double root).
     amplitude_range, omega_range : tuple of float
+    warnings : tuple of str
+        Where harmonic balance cannot be trusted for this plant (open-loop unstable, not
+        low-pass; :func:`fitdf.loop.assumptions.plant_warnings`); empty when none.
     """
 
     plant_label: str
@@ -100,6 +103,7 @@ class LimitCycleResponse:
     omega_range: tuple
     plant: LoopPlant = field(repr=False, compare=False)
     describing_function: Callable = field(repr=False, compare=False)
+    warnings: tuple = ()
 
     def at_gain(self, gain) -> list:
         return [c for c in self.intersections if np.isclose(c.gain, gain, rtol=1e-12, atol=0)]
@@ -172,4 +176,5 @@ class LimitCycleResponse:
             "amplitude_range": list(self.amplitude_range),
             "omega_range": list(self.omega_range),
             "intersections": [c.to_dict() for c in self.intersections],
+            "warnings": list(self.warnings),
         }

@@ -3,12 +3,14 @@
 :mod:`fitdf.plots.thesis` redraws the computed graphs of thesis Chapter IV
 (Graphs 4.1-4.7) from fitdf's models; :mod:`fitdf.plots.fits` draws fitted results
 (DF against amplitude, residuals, cross-impedance), :mod:`fitdf.plots.loci` their
-critical loci and :mod:`fitdf.plots.posterior` a posterior's corner plot.
+critical loci and :mod:`fitdf.plots.posterior` a posterior's corner plot;
+:mod:`fitdf.plots.summary` draws a report's opening figure from its results record.
 """
 
 from fitdf.plots.fits import plot_cross_impedance, plot_fit, plot_residuals
 from fitdf.plots.loci import plot_critical_loci
 from fitdf.plots.posterior import plot_corner
+from fitdf.plots.summary import plot_summary
 from fitdf.plots.thesis import (
     THESIS_GRAPHS,
     graph_4_1,
@@ -36,4 +38,5 @@ __all__ = [
     "plot_residuals",
     "plot_corner",
     "plot_cross_impedance",
+    "plot_summary",
 ]

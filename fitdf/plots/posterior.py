@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
-import corner
 import numpy as np
 
+# isort: off
+# corner imports ArviZ: fitdf._arviz imports it first, without its refactor notice
+import fitdf._arviz  # noqa: F401
+import corner
+
+# isort: on
 from fitdf.plots._figure import new_figure
 
 __all__ = ["plot_corner"]

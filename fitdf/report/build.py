@@ -13,32 +13,33 @@ the models; predicts across source impedance; compares limit cycles with Tables
   code-hosting site) and as one self-contained HTML file.
 
 Cost and parallelism
-    Fits are independent jobs run by a pool of ``workers`` processes; each job
-    depends only on its inputs and the seed, so the report is identical to a serial
-    run (``workers=1``). Least squares runs for every model; MCMC, the
-    leave-one-frequency-out cross-validation and the cross-impedance prediction run
-    for the ``*_top`` best least-squares models of each block (``None`` = all) -- the
-    rest would multiply the run time without changing what the report shows.
+    Fits are independent jobs run by :class:`fitdf.report.executor.Executor`: in
+    ``workers`` local processes, or on a Dask cluster given its ``scheduler`` address;
+    each job depends only on its inputs and the seed, so the report is identical to a
+    serial run (``workers=1``). Figures are drawn where their job runs and sent back as
+    bytes (a cluster worker's disk is not the report's). Least squares runs for every
+    model; MCMC, the leave-one-frequency-out cross-validation and the cross-impedance
+    prediction run for the ``*_top`` best least-squares models of each block (``None`` =
+    all) -- the rest would multiply the run time without changing what the report shows.
 Atomic output
     Everything is built in a temporary sibling of ``out_dir`` which then replaces it
     (two renames, the old report restored if the second fails): an interrupted or
-    failed run leaves the previous report as it was.
+    failed run leaves the previous report as it was. The temporary folder is named
+    ``.<out>.tmp-<pid>-*``; one whose process is gone (a run killed outright) is removed
+    by the next run.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import sys
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass
-from multiprocessing import get_context
 from pathlib import Path
-
-from tqdm.auto import tqdm
 
 from fitdf import __version__
 from fitdf.errors import OptionError
@@ -49,6 +50,7 @@ from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_tab
 from fitdf.models import model_names
 from fitdf.report import render
 from fitdf.report import sections as rs
+from fitdf.report.executor import Executor
 
 __all__ = [
     "generate_report",
@@ -134,7 +136,10 @@ class ReportSettings:
     plot_top : int
         Models drawn in the residual figure; the loci show the best two.
     workers : int
-        Worker processes (1: serial; results are identical).
+        Local worker processes (1: serial; results are identical).
+    scheduler : str or None
+        Address of a Dask distributed scheduler (``tcp://host:8786``) to run the jobs on
+        instead of local processes (results are identical); None: local.
     chain : str
         The measurement chain of every fit (default: the exact ``voltage`` circuit).
     approximate_chain : str or None
@@ -158,21 +163,29 @@ class ReportSettings:
     limit_cycles: bool = True
     plot_top: int = 3
     workers: int = 2
+    scheduler: str | None = None
     chain: str = DEFAULT_CHAIN
     approximate_chain: str | None = "winding"
 
     @classmethod
-    def for_run(cls, quick: bool = False, methods=("lsq", "mcmc")) -> ReportSettings:
+    def for_run(
+        cls, quick: bool = False, methods=("lsq", "mcmc"), *, scheduler: str | None = None
+    ) -> ReportSettings:
         """The default settings, or the quick ones: least squares only (the same models,
         starts and seeds, so the same rankings), no cross-validation, one model per
-        cross-impedance direction; every section is still produced."""
+        cross-impedance direction; every section is still produced. ``scheduler``: run
+        on that Dask cluster (see :class:`ReportSettings`)."""
         methods = tuple(methods)
         bad = set(methods) - {"lsq", "mcmc"}
         if bad or "lsq" not in methods:
             raise OptionError(f"methods must be ('lsq',) or ('lsq', 'mcmc'), got {methods}")
         if quick:
-            return cls(methods=("lsq",), mcmc_top=0, cv_top=0, cross_top=1)
-        return cls(methods=methods, mcmc_top=cls.mcmc_top if "mcmc" in methods else 0)
+            return cls(methods=("lsq",), mcmc_top=0, cv_top=0, cross_top=1, scheduler=scheduler)
+        return cls(
+            methods=methods,
+            mcmc_top=cls.mcmc_top if "mcmc" in methods else 0,
+            scheduler=scheduler,
+        )
 
     def model_list(self) -> list[str]:
         return list(self.models) if self.models else model_names()
@@ -212,61 +225,35 @@ def _job_cross(core, model, train_ohm, test_ohm, seed, n_starts, chain):
     ).to_dict(orient="records")
 
 
-def _job_limit_cycles(seed, models, n_starts, figdir):
-    return rs.limit_cycle_section(seed, models, n_starts, figdir)
+def _drawn(fn, *args):
+    """``fn(*args, folder)`` with a fresh folder where the job runs; its result and the files it
+    wrote, as ``(result, {relative path: bytes})`` (see :func:`_keep_files`)."""
+    with tempfile.TemporaryDirectory(prefix="fitdf-figures-") as folder:
+        result = fn(*args, Path(folder))
+        files = {
+            p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(Path(folder).rglob("*"))
+            if p.is_file()
+        }
+    return result, files
 
 
-def _job_figures(kind, payload, figdir):
-    return rs.make_figures(kind, payload, Path(figdir))
+def _keep_files(drawn, figdir: Path):
+    """Write the files of a :func:`_drawn` job into ``figdir``; return the job's result."""
+    result, files = drawn
+    for name, data in files.items():
+        path = figdir / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+    return result
 
 
-def _timed(fn, *args):
-    start = time.perf_counter()
-    return fn(*args), time.perf_counter() - start
+def _job_limit_cycles(seed, models, n_starts):
+    return _drawn(rs.limit_cycle_section, seed, models, n_starts)
 
 
-class _Runner:
-    """Runs a dict of jobs serially or in a process pool; results keyed like the jobs.
-
-    Jobs are submitted in the dict's order (put long ones first); ``seconds`` records
-    each job's run time.
-    """
-
-    def __init__(self, workers: int, progress: bool):
-        self.workers = max(1, int(workers))
-        self.progress = progress
-        self.pool = None
-        self.seconds = {}
-
-    def __enter__(self):
-        if self.workers > 1:
-            self.pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"))
-        return self
-
-    def __exit__(self, *exc):
-        if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
-        return False
-
-    def run(self, jobs: dict, desc: str) -> dict:
-        out = {}
-        with tqdm(
-            total=len(jobs), desc=desc, file=sys.stderr, disable=not self.progress, leave=True
-        ) as bar:
-            if self.pool is None:
-                for key, (fn, args) in jobs.items():
-                    out[key] = _timed(fn, *args)
-                    bar.update(1)
-            else:
-                futures = {
-                    self.pool.submit(_timed, fn, *args): key for key, (fn, args) in jobs.items()
-                }
-                for fut in as_completed(futures):
-                    out[futures[fut]] = fut.result()
-                    bar.update(1)
-        for key in jobs:
-            self.seconds[" ".join(map(str, key))] = round(out[key][1], 2)
-        return {key: out[key][0] for key in jobs}
+def _job_figures(kind, payload):
+    return _drawn(rs.make_figures, kind, payload)
 
 
 # ------------------------------------------------------------------ computation
@@ -318,10 +305,7 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
     jobs = {}
     if settings.limit_cycles:
         winners = rs.aicc_winners(lsq, models, LIMIT_CYCLE_BLOCKS)
-        jobs[("limit",)] = (
-            _job_limit_cycles,
-            (seed, winners or None, settings.n_starts, str(figdir)),
-        )
+        jobs[("limit",)] = (_job_limit_cycles, (seed, winners or None, settings.n_starts))
     for b in blocks:
         sampled = [m for m in ranked[b.key] if m not in settings.mcmc_skip]
         for m in _top(sampled, settings.mcmc_top if "mcmc" in settings.methods else 0):
@@ -344,7 +328,7 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
         kind: {k[1:]: v for k, v in done.items() if k[0] == kind}
         for kind in ("mcmc", "cv", "cross")
     }
-    out["limit"] = done.get(("limit",))
+    out["limit"] = _keep_files(done[("limit",)], figdir) if ("limit",) in done else None
     return out
 
 
@@ -358,7 +342,7 @@ def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
             [mcmc[(b.key, m)] for m in ranked[b.key] if (b.key, m) in mcmc],
             settings,
         )
-        jobs[("block", b.key)] = (_job_figures, ("block", payload, str(figdir)))
+        jobs[("block", b.key)] = (_job_figures, ("block", payload))
     for core, train, test, train_key, test_key in settings.cross:
         ms = [m for m in ranked.get(train_key, []) if (core, train, test, m) in cross]
         if ms:  # the training fits are the report's own fits of the training block (same data, seed, starts)
@@ -367,12 +351,12 @@ def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
                 "gains": {m: cross[(core, train, test, m)][0]["calibration_gain"] for m in ms},
                 "train": [lsq[(train_key, m)] for m in ms],
             }
-            jobs[("cross", core, train, test)] = (_job_figures, ("cross", payload, str(figdir)))
-    jobs[("thesis",)] = (_job_figures, ("thesis", None, str(figdir)))
-    return runner.run(jobs, "figures")
+            jobs[("cross", core, train, test)] = (_job_figures, ("cross", payload))
+    jobs[("thesis",)] = (_job_figures, ("thesis", None))
+    return {k: _keep_files(v, figdir) for k, v in runner.run(jobs, "figures").items()}
 
 
-def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) -> dict:
+def collect(settings: ReportSettings, seed: int, figdir: Path, runner: Executor) -> dict:
     """Run every fit and figure; return the JSON-ready results (see report_render)."""
     models, blocks = settings.model_list(), settings.block_list()
     timing = {}
@@ -413,6 +397,7 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) 
             for b in blocks
         },
         "cross_impedance": rs.cross_record(settings.cross, second["cross"], figures),
+        "small_signal": rs.small_signal_record(lsq),
         "limit_cycles": second["limit"]
         if second["limit"] is not None
         else rs.limit_cycles_switched_off(),
@@ -421,6 +406,8 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: _Runner) 
         "models": rs.model_descriptions(models),
     }
     results["findings"] = rs.findings(results)
+    # The opening figure reads the assembled record (cheap: drawn here, not as a pool job).
+    results["summary_figure"] = rs.summary_figure(results, figdir)
     timing["jobs_s"] = dict(runner.seconds)
     results["timing"] = timing
     return results
@@ -433,6 +420,35 @@ def write_outputs(results: dict, out_dir: Path) -> None:
     (out_dir / "results.json").write_text(text + "\n", encoding="utf-8")
     (out_dir / "README.md").write_text(render.render_markdown(results), encoding="utf-8")
     (out_dir / "index.html").write_text(render.render_html(results, out_dir), encoding="utf-8")
+
+
+def _tmp_pattern(out_dir: Path) -> re.Pattern:
+    """Names of the temporary folders of ``out_dir``: ``.<name>.tmp-<pid>-<random>``."""
+    return re.compile(rf"\.{re.escape(out_dir.name)}\.tmp-(\d+)-")
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists (anything but POSIX: assume it does)."""
+    if os.name != "posix" or pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process
+        return True
+    return True
+
+
+def _remove_stale(out_dir: Path) -> list[Path]:
+    """Remove the temporary folders of ``out_dir`` whose run is gone (killed outright)."""
+    pattern, removed = _tmp_pattern(out_dir), []
+    for path in out_dir.parent.iterdir():
+        match = pattern.match(path.name)
+        if match and path.is_dir() and not _running(int(match.group(1))):
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed
 
 
 def _swap_in(tmp: Path, out_dir: Path) -> None:
@@ -493,16 +509,17 @@ def generate_report(
     out_dir = Path(out_dir).resolve()
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
+    _remove_stale(out_dir)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-{os.getpid()}-", dir=out_dir.parent))
     try:
         os.chmod(tmp, 0o755)  # mkdtemp makes it private; the report is meant to be read
         figdir = tmp / "figures"
         figdir.mkdir()
-        with _Runner(settings.workers, progress) as runner:
+        with Executor(settings.workers, settings.scheduler, progress) as runner:
             results = collect(settings, seed, figdir, runner)
         total = time.perf_counter() - start
         results["timing"]["total_s"] = total
-        results["timing"]["workers"] = settings.workers
+        results["timing"]["workers"] = runner.workers
         results = {
             "fitdf_version": __version__,
             "seed": int(seed),
@@ -516,9 +533,10 @@ def generate_report(
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     if progress:
+        where = f" on {settings.scheduler}" if settings.scheduler else ""
         print(
             f"fitdf report: wrote {out_dir} in {time.perf_counter() - start:.0f} s "
-            f"({settings.workers} worker{'s' if settings.workers > 1 else ''})",
+            f"({runner.workers} worker{'s' if runner.workers > 1 else ''}{where})",
             file=sys.stderr,
         )
     return out_dir
@@ -530,5 +548,6 @@ def _settings_record(settings: ReportSettings) -> dict:
     d["blocks"] = [b.key for b in settings.block_list()]
     d["cross"] = [list(c) for c in settings.cross]
     d["methods"] = list(settings.methods)
-    d.pop("workers")  # the pool size does not change any number
+    d.pop("workers")  # where the jobs ran does not change any number
+    d.pop("scheduler")
     return d

@@ -1,19 +1,29 @@
 """What the report says, in order: :func:`build_document` and the report-wide sections.
 
-The settings, contents, findings and summary, then one section per block
+The title, the summary figure (:mod:`fitdf.plots.summary`), the settings, contents,
+findings and summary table, then one section per block
 (:mod:`fitdf.report.block_outline`), the cross-impedance prediction, the limit
 cycles, the audit, the thesis's curves and the models -- as a list of document blocks
 (:mod:`fitdf.report.document`) that :mod:`fitdf.report.render` renders.
+:func:`nav_links` names the main sections for the HTML navigation bar.
 """
 
 from __future__ import annotations
 
 import json
 
+from fitdf.plots.summary import CAPTION as SUMMARY_CAPTION
 from fitdf.report.block_outline import _block_blocks
 from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, slug
 
-__all__ = ["build_document"]
+__all__ = ["build_document", "nav_links"]
+
+TITLE = "fitdf comparison report: describing-function models of three magnetic cores"
+_CROSS = "Cross-impedance prediction"
+_LIMIT = "Limit cycles (Tables 5.1, 5.2)"
+_AUDIT = "Audit of the printed tables (Appendix B)"
+_THESIS = "The thesis's computed curves (Graphs 4.1-4.7)"
+_SMALL = "Small signals: a DC-bias hypothesis"
 
 
 def _settings_text(res) -> list:
@@ -36,7 +46,12 @@ def _settings_text(res) -> list:
             [
                 f"fitdf {res['fitdf_version']}, seed {res['seed']}"
                 + (" (**quick** configuration)" if res.get("quick") else ""),
-                f"models: {', '.join('`' + m + '`' for m in s['models'])}; measurement chain `winding`",
+                f"models: {', '.join('`' + m + '`' for m in s['models'])}; measurement chain `{s.get('chain', 'winding')}`"
+                + (
+                    f" (every law also fitted through `{s['approximate_chain']}` for comparison)"
+                    if s.get("approximate_chain")
+                    else ""
+                ),
                 f"least squares with {s['n_starts']} starts for every model and block; {mcmc}; {cv}",
                 f"run time {t.get('total_s', 0):.0f} s with {t.get('workers', 1)} worker process(es) "
                 f"(least squares {t.get('least_squares_s', 0):.0f} s, MCMC/CV/cross-impedance/limit cycles "
@@ -81,7 +96,7 @@ def _summary_table(res):
 
 def _cross_blocks(res):
     out = [
-        H(2, "Cross-impedance prediction"),
+        H(2, _CROSS),
         P(
             "Each core fitted at one source impedance predicts its data at the other: the core's parameters and "
             "the winding resistance come from the training fit; only the target table's calibration gain is "
@@ -122,9 +137,48 @@ def _cross_blocks(res):
     return out
 
 
+def _small_signal_blocks(res):
+    records = res.get("small_signal") or []
+    out = [
+        H(2, _SMALL),
+        P(
+            "The smallest inputs of the 600 ohm tables imply large loss angles with no frequency trend. The thesis "
+            "mentions bias turns against a DC voltage in the analyser (Photo 2), so the core may sit in a biased or "
+            "remanent state. In the Preisach law minor loops between the same extremes are congruent, so remanence "
+            "cannot change the DF; a DC bias current can. Each block's Preisach fit is given the bias (one per "
+            "table, and a free one per row) that fits its smallest-input rows best, through the sinusoidal-current "
+            "relation (its error against the exact chain at zero bias is shown)."
+        ),
+    ]
+    if not records:
+        return out + [P("Not computed in this configuration (no Preisach fit of a 600 ohm block).")]
+    for rec in records:
+        out.append(H(3, f"{rec['block']}: {rec['verdict']}"))
+        out.append(
+            _records_table(
+                rec["rows"],
+                [
+                    ("frequency_hz", "f (c/s)"),
+                    ("input_v", "input (V)"),
+                    ("peak_current_a", "peak current (A)"),
+                    ("measured_magnitude", "measured abs(DF)"),
+                    ("measured_lead_deg", "measured lead (deg)"),
+                    ("unbiased_error", "error, no bias"),
+                    ("common_bias_error", "error, one bias"),
+                    ("best_bias_error", "error, bias per row"),
+                    ("best_bias_over_i_c", "best bias / i_c"),
+                    ("implied_loss_angle_deg", "loss angle implied (deg)"),
+                    ("max_loss_angle_any_bias_deg", "largest loss angle any bias gives (deg)"),
+                    ("approximation_error", "sinusoidal-current error"),
+                ],
+            )
+        )
+    return out
+
+
 def _limit_blocks(res):
     lc = res["limit_cycles"]
-    out = [H(2, "Limit cycles (Tables 5.1, 5.2)")]
+    out = [H(2, _LIMIT)]
     if not lc.get("available"):
         return out + [P(lc.get("reason", "Not available."))]
     if lc.get("error"):
@@ -172,7 +226,7 @@ def _limit_blocks(res):
 def _audit_blocks(res):
     a = res["audit"]
     return [
-        H(2, "Audit of the printed tables (Appendix B)"),
+        H(2, _AUDIT),
         _records_table(
             a["tables"],
             [
@@ -197,7 +251,7 @@ def _audit_blocks(res):
 
 def _thesis_blocks(res):
     out = [
-        H(2, "The thesis's computed curves (Graphs 4.1-4.7)"),
+        H(2, _THESIS),
         P("Redrawn from fitdf's models with the thesis's k = 1, c = 5 (`fitdf.plots.thesis`)."),
     ]
     for g in res["thesis_graphs"]:
@@ -224,6 +278,37 @@ def _model_blocks(res):
     ]
 
 
+def _overview_blocks(res) -> list:
+    """The summary figure and its caption (nothing when the record has none)."""
+    path = res.get("summary_figure")
+    if not path:
+        return []
+    return [
+        IMG(path, "summary: residual of every law on every block; constants against Appendix A"),
+        P(SUMMARY_CAPTION),
+    ]
+
+
+def nav_links(res: dict) -> list[tuple[str, str]]:
+    """``(label, anchor)`` of the report's main sections, short enough for one bar.
+
+    The anchors are the slugs of the document's own headings (first occurrence), so each
+    resolves in the HTML (and on a code-hosting site).
+    """
+    links = [("Overview", slug(TITLE)), ("Findings", "findings"), ("Summary", "summary")]
+    links += [
+        ("+".join(b.get("tables") or [b["key"]]), slug(b["title"])) for b in res["blocks"].values()
+    ]
+    return links + [
+        ("Cross-impedance", slug(_CROSS)),
+        ("Small signals", slug(_SMALL)),
+        ("Limit cycles", slug(_LIMIT)),
+        ("Audit", slug(_AUDIT)),
+        ("Thesis graphs", slug(_THESIS)),
+        ("Models", "models"),
+    ]
+
+
 def build_document(res: dict) -> list:
     """The report as a list of blocks (see the module docstring)."""
     blocks = [res["blocks"][k] for k in res["blocks"]]
@@ -231,18 +316,21 @@ def build_document(res: dict) -> list:
     toc += [f"[{b['title']}](#{slug(b['title'])})" for b in blocks]
     toc += [
         "[Cross-impedance prediction](#cross-impedance-prediction)",
+        f"[{_SMALL}](#{slug(_SMALL)})",
         "[Limit cycles (Tables 5.1, 5.2)](#limit-cycles-tables-51-52)",
         "[Audit of the printed tables](#audit-of-the-printed-tables-appendix-b)",
         "[The thesis's computed curves](#the-thesiss-computed-curves-graphs-41-47)",
         "[Models](#models)",
     ]
+    chain = res["settings"].get("chain", "winding")
     doc = [
-        H(1, "fitdf comparison report: describing-function models of three magnetic cores"),
+        H(1, TITLE),
         P(
-            "Every candidate hysteresis law, seen through the winding measurement chain, fitted to the measured "
+            f"Every candidate hysteresis law, seen through the `{chain}` measurement chain, fitted to the measured "
             "describing functions of Appendix B (thesis Chapter V) by least squares and MCMC, ranked, and used to "
             "predict across source impedance and to predict limit cycles. Generated by `fitdf report`; do not edit."
         ),
+        *_overview_blocks(res),
         *_settings_text(res),
         H(2, "Contents"),
         UL(toc),
@@ -256,6 +344,7 @@ def build_document(res: dict) -> list:
         doc += _block_blocks(b)
     doc += (
         _cross_blocks(res)
+        + _small_signal_blocks(res)
         + _limit_blocks(res)
         + _audit_blocks(res)
         + _thesis_blocks(res)

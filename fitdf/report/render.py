@@ -8,7 +8,9 @@ paragraphs, lists, tables, images, collapsible details) built by
   (``figures/...``), ``<details>`` for the long parameter tables; renders on a
   code-hosting site.
 * :func:`render_html` -- ``index.html``: one self-contained file, the PNG figures
-  embedded as base64 ``data:`` URIs, inline CSS, no scripts and no external resources.
+  embedded as base64 ``data:`` URIs, inline CSS, no scripts and no external resources;
+  a navigation bar to the main sections (:func:`fitdf.report.outline.nav_links`) stays
+  at the top of the window (CSS ``position: sticky``).
 
 Re-render an existing report without refitting::
 
@@ -26,7 +28,7 @@ import re
 from pathlib import Path
 
 from fitdf.report.document import fmt, slug
-from fitdf.report.outline import build_document
+from fitdf.report.outline import build_document, nav_links
 
 __all__ = ["build_document", "render_markdown", "render_html", "slug", "fmt"]
 
@@ -74,6 +76,11 @@ _CSS = """
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;max-width:1300px;margin:0 auto;
 padding:1.5em;color:#1f2328;line-height:1.45}
 h1{font-size:1.7em;border-bottom:1px solid #d0d7de;padding-bottom:.3em}
+h1,h2,h3{scroll-margin-top:3.2em}
+nav.sections{position:sticky;top:0;z-index:10;background:#fff;border-bottom:1px solid #d0d7de;
+padding:.45em 0;display:flex;flex-wrap:wrap;gap:.15em 1em;font-size:.9em}
+nav.sections a{color:#0b57d0;text-decoration:none;white-space:nowrap}
+nav.sections a:hover{text-decoration:underline}
 h2{font-size:1.35em;border-bottom:1px solid #d0d7de;padding-bottom:.25em;margin-top:2em}
 h3{font-size:1.1em;margin-top:1.4em}
 table{border-collapse:collapse;margin:.6em 0;font-size:.85em;display:block;overflow-x:auto}
@@ -130,9 +137,17 @@ def _html(blocks, root: Path, ids: dict) -> list[str]:
     return out
 
 
+def _nav(res: dict) -> str:
+    links = "".join(
+        f'<a href="#{html.escape(anchor)}">{html.escape(label)}</a>'
+        for label, anchor in nav_links(res)
+    )
+    return f'<nav class="sections" aria-label="Report sections">{links}</nav>'
+
+
 def render_html(res: dict, root) -> str:
     """index.html text: self-contained, figures read from ``root / 'figures/...'`` and embedded."""
-    body = "\n".join(_html(build_document(res), Path(root), {}))
+    body = "\n".join([_nav(res), *_html(build_document(res), Path(root), {})])
     return (
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
         '<meta name="viewport" content="width=device-width, initial-scale=1">\n'

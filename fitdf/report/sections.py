@@ -9,6 +9,7 @@ are written by :mod:`fitdf.report.findings` (:func:`findings` is re-exported her
 from __future__ import annotations
 
 import io
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ from fitdf.data import audit, datasets
 from fitdf.inference.api import resolve_data
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import best_by_aicc, ranking_table
+from fitdf.inference.small_signal import small_signal_scan, verdict
 from fitdf.models import get_model
 from fitdf.plots import (
     plot_corner,
@@ -30,6 +32,7 @@ from fitdf.plots import (
     save_thesis_graphs,
 )
 from fitdf.plots.limit_cycles import plot_thesis_comparison
+from fitdf.plots.summary import plot_summary
 from fitdf.plots.thesis import THESIS_GRAPHS
 from fitdf.report.findings import findings
 from fitdf.thesis import thesis_limit_cycle_comparison
@@ -38,7 +41,9 @@ __all__ = [
     "block_record",
     "block_payload",
     "make_figures",
+    "summary_figure",
     "cross_record",
+    "small_signal_record",
     "audit_record",
     "findings",
     "limit_cycle_section",
@@ -375,6 +380,39 @@ def chain_comparison(exact_ranked, approx_results, top=3) -> dict | None:
     )
 
 
+#: Blocks of the small-signal hypothesis test: the 600 ohm tables, where the reading
+#: depends on the core's complex inductance (at 0 ohm it is nearly the gain).
+SMALL_SIGNAL_BLOCKS = ("B.3", "B.5", "B.4")
+
+
+def small_signal_record(lsq: dict) -> list[dict]:
+    """The DC-bias hypothesis on each 600 ohm block's Preisach fit (JSON-ready; empty
+    when the report has no Preisach fit of such a block): rows and verdict of
+    :func:`fitdf.inference.small_signal.small_signal_scan`."""
+    out = []
+    for key in SMALL_SIGNAL_BLOCKS:
+        r = lsq.get((key, "preisach"))
+        if r is None:
+            continue
+        scan = small_signal_scan(r)
+        rows = scan.drop(columns=["measured", "fitted", "sinusoidal_unbiased"]).assign(
+            measured_magnitude=np.abs(scan["measured"]),
+            measured_lead_deg=np.angle(scan["measured"], deg=True),
+            fitted_magnitude=np.abs(scan["fitted"]),
+            fitted_lead_deg=np.angle(scan["fitted"], deg=True),
+        )
+        out.append(
+            {
+                "block": key,
+                "model": "preisach",
+                "rms_complex": r.metrics["rms_complex"],
+                "verdict": verdict(scan),
+                "rows": rows.to_dict(orient="records"),
+            }
+        )
+    return clean(out)
+
+
 def cross_record(directions, cross: dict, figures: dict) -> list[dict]:
     out = []
     for core, train, test, train_key, test_key in directions:
@@ -410,15 +448,16 @@ def block_payload(block, lsq_ranked, mcmc_ranked, settings) -> dict:
     }
 
 
-def _save(fig, figdir: Path, name: str) -> str:
-    """Write ``fig`` as a 256-colour palette PNG (a third of the size; line plots lose nothing visible)."""
+def _save(fig, figdir: Path, name: str, palette: bool = True) -> str:
+    """Write ``fig`` as a 256-colour palette PNG (a third of the size; line plots lose nothing
+    visible), or as full RGB when ``palette`` is False (colour gradients, which a palette bands)."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=100)
     buf.seek(0)
     with Image.open(buf) as img:
-        img.convert("RGB").quantize(256, method=Image.Quantize.FASTOCTREE).save(
-            figdir / name, optimize=True
-        )
+        rgb = img.convert("RGB")
+        out = rgb.quantize(256, method=Image.Quantize.FASTOCTREE) if palette else rgb
+        out.save(figdir / name, optimize=True)
     return f"figures/{name}"
 
 
@@ -457,6 +496,17 @@ def make_figures(kind: str, payload, figdir: Path):
     if best_post is not None:
         out["corner"] = _save(plot_corner(best_post, truths=lsq[0]), figdir, f"{slug}_corner.png")
     return out
+
+
+def summary_figure(results: dict, figdir: Path) -> str | None:
+    """The report's opening figure (:func:`fitdf.plots.summary.plot_summary`) from the collected
+    results; its relative path, or None (with a warning) when it cannot be drawn -- the rest
+    of the report stands."""
+    try:
+        return _save(plot_summary(results), Path(figdir), "summary.png", palette=False)
+    except Exception as exc:
+        warnings.warn(f"summary figure not drawn: {type(exc).__name__}: {exc}", stacklevel=2)
+        return None
 
 
 def _thesis_title(fn) -> str:

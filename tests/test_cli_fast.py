@@ -1,0 +1,113 @@
+"""``fitdf --version`` and every ``--help`` load no numerical stack (they answer at once).
+
+The command line imports what a subcommand needs only when that subcommand runs
+(fitdf/cli.py). These tests check *which modules are imported*, not a time, so they do not
+depend on the machine's load. The parser's choices, written out in cli.py for that
+reason, must stay those of the library. And ArviZ's refactor notice, not about the user's
+result, never reaches the terminal (fitdf/_arviz.py).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from fitdf import cli
+from fitdf.chains import chain_names
+from fitdf.inference.api import DEFAULT_CHAIN
+from fitdf.inference.ranking import METHOD_CHOICES, RANK_COLUMNS
+
+HEAVY = ("numpy", "scipy", "pandas", "matplotlib", "numba", "lmfit", "emcee", "arviz", "control")
+SUBCOMMANDS = ("datasets", "audit", "models", "fit", "report", "limit-cycle")
+
+#: Runs in a fresh interpreter: ``python -m fitdf`` for each argv, then the modules loaded.
+PROBE = textwrap.dedent(
+    """
+    import contextlib, io, json, runpy, sys
+    codes = []
+    for argv in json.loads(sys.argv[1]):
+        sys.argv = ["fitdf", *argv]
+        out = io.StringIO()
+        try:
+            with contextlib.redirect_stdout(out):
+                runpy.run_module("fitdf", run_name="__main__", alter_sys=True)
+        except SystemExit as exc:
+            codes.append([exc.code, out.getvalue()[:40]])
+    print(json.dumps({"codes": codes, "modules": sorted(sys.modules)}))
+    """
+)
+
+
+def _probe(argvs: list[list[str]]) -> dict:
+    run = subprocess.run(
+        [sys.executable, "-c", PROBE, json.dumps(argvs)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    return json.loads(run.stdout)
+
+
+def test_version_and_help_import_no_numerical_stack():
+    argvs = [["--version"], ["--help"], *([c, "--help"] for c in SUBCOMMANDS)]
+    found = _probe(argvs)
+    assert [c for c, _ in found["codes"]] == [0] * len(argvs)
+    assert found["codes"][0][1].startswith("fitdf ")  # --version answered
+    heavy = sorted(m for m in found["modules"] if m.split(".")[0] in HEAVY)
+    assert not heavy, f"--version/--help imported {heavy}"
+    own = [m for m in found["modules"] if m.startswith("fitdf")]
+    assert set(own) <= {"fitdf", "fitdf.__main__", "fitdf.cli", "fitdf.errors"}, own
+
+
+def test_a_bad_option_value_fails_before_the_numerical_stack_loads():
+    found = _probe([["fit", "B.3", "--seed", "-1"], ["report", "--seed", "x"]])
+    assert [c for c, _ in found["codes"]] == [2, 2]
+    assert not [m for m in found["modules"] if m.split(".")[0] in HEAVY]
+
+
+def test_python_dash_m_fitdf_prints_the_version():
+    run = subprocess.run(
+        [sys.executable, "-m", "fitdf", "--version"], capture_output=True, text=True, timeout=120
+    )
+    assert run.returncode == 0 and run.stdout.startswith("fitdf "), run.stderr
+
+
+def test_parser_choices_are_the_librarys():
+    assert sorted(cli.CHAIN_CHOICES) == sorted(chain_names())
+    assert cli.DEFAULT_CHAIN == DEFAULT_CHAIN
+    assert tuple(cli.METHOD_CHOICES) == tuple(METHOD_CHOICES)
+    assert tuple(cli.RANK_CHOICES) == tuple(RANK_COLUMNS)
+
+
+def test_largest_seed_is_numpys():
+    np.random.RandomState(cli.MAX_SEED)
+    np.random.default_rng(cli.MAX_SEED)
+    with pytest.raises(ValueError):
+        np.random.RandomState(cli.MAX_SEED + 1)
+
+
+def test_arvizs_refactor_notice_is_filtered_and_nothing_else(tmp_path):
+    """ArviZ warns once a day on import (a stamp in the user's cache): a fresh cache shows it."""
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache"), "PYTHONWARNINGS": "always"}
+
+    def stderr_of(code: str) -> str:
+        run = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env
+        )
+        assert run.returncode == 0, run.stderr[-2000:]
+        return run.stderr
+
+    assert "ArviZ is undergoing a major refactor" in stderr_of("import arviz")  # the control
+    (tmp_path / "cache").rename(tmp_path / "used")  # fresh again
+    quiet = stderr_of(
+        "import warnings; warnings.warn('still shown', UserWarning)\n"
+        "import fitdf.plots.posterior, fitdf.inference.mcmc, fitdf.inference.ranking"
+    )
+    assert "ArviZ is undergoing" not in quiet and "still shown" in quiet, quiet

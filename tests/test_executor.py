@@ -1,0 +1,143 @@
+"""The report's executor: serial, local processes and a Dask cluster give the same keyed results."""
+
+from __future__ import annotations
+
+import json
+import operator
+import os
+import time
+from dataclasses import replace
+
+import pytest
+
+import fitdf.report.executor as executor
+from fitdf import cli
+from fitdf.errors import OptionError
+from fitdf.report.build import ReportSettings, generate_report
+from fitdf.report.executor import Executor, RemoteTraceback
+
+distributed = pytest.importorskip("distributed")
+
+#: Jobs of the standard library only: a Dask worker imports them by name (no test module).
+#: The first is the slowest, so in a pool they finish in another order than submitted.
+JOBS = {
+    ("slow",): (time.sleep, (0.5,)),
+    ("pow", 2): (pow, (2, 10)),
+    ("add",): (operator.add, ("a", "b")),
+    ("pow", 3): (pow, (3, 3)),
+}
+EXPECTED = {("slow",): None, ("pow", 2): 1024, ("add",): "ab", ("pow", 3): 27}
+
+#: A report small enough to run twice in a test; every kind of job (fits, MCMC, CV,
+#: cross-impedance, figures) still runs.
+SMALL = ReportSettings(
+    models=("proportional_width",),
+    blocks=("B.1",),
+    n_starts=1,
+    mcmc_top=1,
+    n_steps=50,
+    n_walkers=16,
+    cv_top=1,
+    cv_starts=1,
+    cross_top=1,
+    cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),),
+    limit_cycles=False,
+    approximate_chain=None,
+    workers=1,
+)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as c:
+        yield c
+
+
+@pytest.fixture(params=["serial", "processes", "dask"])
+def where(request):
+    """Executor arguments of each way to run."""
+    if request.param == "dask":
+        return {"scheduler": request.getfixturevalue("cluster").scheduler_address}
+    return {"workers": 1 if request.param == "serial" else 2}
+
+
+def test_results_keyed_and_in_job_order(where):
+    with Executor(**where) as ex:
+        out = ex.run(JOBS, "jobs")
+        again = ex.run({("neg",): (operator.neg, (4,))}, "more jobs")  # the pool is reused
+    assert out == EXPECTED and list(out) == list(JOBS)
+    assert again == {("neg",): -4}
+    assert set(ex.seconds) == {"slow", "pow 2", "add", "pow 3", "neg"}
+    assert ex.seconds["slow"] >= 0.5 and all(s >= 0 for s in ex.seconds.values())
+    assert ex.workers == (1 if where.get("workers") == 1 else 2)
+
+
+def test_a_failing_job_raises_its_error_and_stops_the_rest(where):
+    """The job's own exception; local workers are terminated, the running job not awaited."""
+    local = where.get("workers") == 2
+    jobs = {
+        ("bad",): (operator.truediv, (1, 0)),
+        ("long",): (time.sleep, (60 if local else 0.1,)),
+    }
+    start = time.perf_counter()
+    with pytest.raises(ZeroDivisionError) as info, Executor(**where) as ex:
+        procs = [p for p, _ in ex._procs]
+        ex.run(jobs, "jobs")
+    print(f"stopped in {time.perf_counter() - start:.2f} s")
+    if local:
+        assert time.perf_counter() - start < 30  # the workers' start-up; not the 60 s job
+        assert len(procs) == 2 and not any(p.is_alive() for p in procs)
+        assert isinstance(info.value.__cause__, RemoteTraceback)
+        assert "truediv" in str(info.value.__cause__) or "division" in str(info.value.__cause__)
+
+
+def test_a_dead_worker_is_an_error_not_a_hang():
+    with pytest.raises(RuntimeError, match="died running job"), Executor(workers=2) as ex:
+        ex.run({("exit",): (os._exit, (3,))}, "jobs")
+
+
+def test_a_scheduler_without_dask_is_a_user_error(monkeypatch):
+    monkeypatch.setattr(executor, "find_spec", lambda name: None)
+    with pytest.raises(OptionError, match=r"fitdf\[dask\]"), Executor(scheduler="tcp://x:8786"):
+        pass
+
+
+@pytest.mark.slow
+def test_a_report_on_a_cluster_gives_the_serial_numbers(tmp_path, cluster):
+    serial = generate_report(tmp_path / "serial", progress=False, settings=SMALL)
+    on_cluster = generate_report(
+        tmp_path / "cluster",
+        progress=False,
+        settings=replace(SMALL, scheduler=cluster.scheduler_address),
+    )
+    ra, rb = (json.loads((p / "results.json").read_text()) for p in (serial, on_cluster))
+    assert rb["timing"]["workers"] == 2 and set(rb["timing"]["jobs_s"]) == set(
+        ra["timing"]["jobs_s"]
+    )
+    assert "scheduler" not in rb["settings"] and "workers" not in rb["settings"]
+    assert {k: v for k, v in ra.items() if k != "timing"} == {
+        k: v for k, v in rb.items() if k != "timing"
+    }
+    figures = sorted(p.relative_to(serial).as_posix() for p in serial.rglob("*.png"))
+    assert figures == sorted(
+        p.relative_to(on_cluster).as_posix() for p in on_cluster.rglob("*.png")
+    )
+    assert "figures/B_1_fit.png" in figures  # drawn on a worker, written into the report
+
+
+def test_report_scheduler_option_and_environment(monkeypatch, tmp_path, capsys):
+    monkeypatch.setenv("FITDF_SCHEDULER", "tcp://envhost:8786")
+    assert cli.build_parser().parse_args(["report"]).scheduler == "tcp://envhost:8786"
+    given = cli.build_parser().parse_args(["report", "--scheduler", "tcp://h:1"])
+    assert given.scheduler == "tcp://h:1"
+    monkeypatch.delenv("FITDF_SCHEDULER")
+    assert cli.build_parser().parse_args(["report"]).scheduler is None
+
+    monkeypatch.setattr(executor, "find_spec", lambda name: None)  # Dask not installed
+    out = tmp_path / "rep"
+    assert cli.main(["report", "--out", str(out), "--quiet", "--scheduler", "tcp://h:1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "fitdf[dask]" in err[0], err
+    assert list(tmp_path.iterdir()) == []  # no report, no temporary folder
