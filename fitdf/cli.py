@@ -580,8 +580,14 @@ def format_limit_cycle_table(result: dict) -> str:
         lines.append("No gain gives a limit cycle in the amplitude range searched.")
     else:
         where = " (at the edge of the amplitude range)" if point.get("at_boundary") else ""
+        unstable = any("unstable in open loop" in w for w in result.get("warnings", ()))
+        below = (
+            "No periodic solution below gain"  # an unstable plant may diverge instead
+            if unstable
+            else "Oscillations die out below gain"
+        )
         lines.append(
-            f"Oscillations die out below gain {crit:.4g}; the first cycle appears at "
+            f"{below} {crit:.4g}; the first cycle appears at "
             f"A = {point.get('amplitude'):.3g} V, omega = {point.get('omega'):.3g} rad/s{where}."
         )
     lines += [f"Warning: {w}." for w in result.get("warnings", ())]
