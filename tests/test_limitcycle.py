@@ -359,29 +359,27 @@ def test_a_cycle_whose_third_harmonic_passes_is_flagged():
     assert plain.intersections and plain.warnings == ()
 
 
-def test_limit_cycle_table_prints_the_warnings():
-    r = limit_cycles("K/(s-1)", relay(), gains=[10.0], amplitude_range=(0.11, 10))
-    record = {
+def _relay_table_record(plant):
+    """The CLI's limit-cycle record of a relay in ``plant`` at K = 10."""
+    r = limit_cycles(plant, relay(), gains=[10.0], amplitude_range=(0.11, 10))
+    return {
         **r.to_dict(),
         "model": "relay",
         "chain": "none",
         "data": "closed form",
         "source_impedance_ohm": 0.0,
     }
+
+
+def test_limit_cycle_table_prints_the_warnings():
+    record = _relay_table_record("K/(s-1)")
     text = format_limit_cycle_table(record)
     assert f"{10:>10.4g} {'none':>12s}" in text  # no cycle at K = 10 ...
     assert text.splitlines()[-1].startswith("Warning: the plant is unstable in open loop")
 
 
 def test_the_table_does_not_promise_decay_for_an_unstable_plant():
-    r = limit_cycles("K/((1+s)(1+0.25s))", relay(), gains=[10.0], amplitude_range=(0.11, 10))
-    record = {
-        **r.to_dict(),
-        "model": "relay",
-        "chain": "none",
-        "data": "closed form",
-        "source_impedance_ohm": 0.0,
-    }
+    record = _relay_table_record("K/((1+s)(1+0.25s))")
     assert record["critical_gain"] is not None
     assert "Oscillations die out below gain" in format_limit_cycle_table(record)
     record["warnings"] = ["the plant is unstable in open loop (pole at s = 1): ..."]

@@ -9,7 +9,12 @@ from fitdf.chains.current_solver import solve_current
 from fitdf.models import get_model
 from fitdf.params import ParamSpec, split_theta
 
-__all__ = ["WindingChain"]
+__all__ = ["WindingChain", "reading"]
+
+
+def reading(Z, R, gain):
+    """The measured DF ``gain Z / (R + Z)`` of a winding of impedance ``Z`` behind ``R`` (sec V.5)."""
+    return gain * Z / (R + Z)
 
 
 class WindingChain(MeasurementChain):
@@ -86,7 +91,7 @@ class WindingChain(MeasurementChain):
         def inductance(i):
             return model.describing_function(i, f, **mkw)
 
-        return current, Z, ckw["gain"] * Z / (R + Z), inductance
+        return current, Z, reading(Z, R, ckw["gain"]), inductance
 
     @classmethod
     def predict(

@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from fitdf.chains.winding import reading
 from fitdf.errors import ModelError
 from fitdf.models._preisach_history import preisach_output
 from fitdf.params import PER_TABLE, parameter_base
@@ -82,11 +83,6 @@ def small_signal_rows(data) -> np.ndarray:
     return np.sort(frame.groupby(["table", "r", "f"], sort=True)["v"].idxmin().to_numpy())
 
 
-def _reading(N, f, R, gain):
-    Z = 2j * np.pi * f * N
-    return gain * Z / (R + Z)
-
-
 def small_signal_scan(result, biases=None) -> pd.DataFrame:
     """Fit a DC bias to each small-signal row of a Preisach ``result``; one row per data row.
 
@@ -116,7 +112,7 @@ def small_signal_scan(result, biases=None) -> pd.DataFrame:
     gain = np.array([gains.get(f"gain[{t}]", values.get("gain", 1.0)) for t in table])
     measured = np.asarray(data.measured)[rows]
     N = biased_describing_function(law, current[:, None], grid[None, :])  # (rows, biases)
-    pred = _reading(N, f[:, None], R[:, None], gain[:, None])
+    pred = reading(2j * np.pi * f[:, None] * N, R[:, None], gain[:, None])
     err = np.abs(pred - measured[:, None])
     best = np.argmin(err, axis=1)
     pick = np.arange(rows.size)
