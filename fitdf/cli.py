@@ -364,6 +364,7 @@ def cmd_fit(args):
     from fitdf.inference.api import resolve_data
     from fitdf.inference.ranking import compare_fits
     from fitdf.models import model_names
+    from fitdf.report.executor import Executor
 
     models = args.models or model_names()
     _check_models(models, model_names())
@@ -374,39 +375,43 @@ def cmd_fit(args):
     rows = [resolve_data(src, args.policy, args.source_impedance) for src in sources]
     per_fit = len(models) * len(args.chain) * (2 if args.method == "both" else 1)
     records, summary = [], []
-    for src, fd in zip(sources, rows):
-        progress = None
-        if not args.quiet and not args.json:
-            desc = f"fitting {fd.label}" if batch else "fitting"
-            progress = tqdm(total=per_fit, desc=desc, file=sys.stderr, disable=None)
-        try:
-            comparison = compare_fits(
-                fd,
-                models=models,
-                chains=tuple(args.chain),
-                method=args.method,
-                seed=args.seed,
-                rank_by=args.rank_by,
-                cross_validation=not args.no_cv,
-                progress=progress,
-                n_steps=args.steps,
-                max_steps=args.max_steps,
-                geometry=geometry,
-            )
-        finally:
-            if progress is not None:
-                progress.close()
-        record = {
-            "data": str(src),
-            "seed": args.seed,
-            "rank_by": args.rank_by,
-            "ranking": comparison.table.to_dict(orient="records"),
-            "fits": [r.to_dict() for r in comparison.results],
-        }
-        records.append(clean(record))
-        summary.append(clean(_summary_row(src, comparison)))
-        if not args.json:
-            _print_fit(comparison, args, brief=batch)
+    show = not args.quiet and not args.json
+    parallel = args.workers > 1 or args.scheduler is not None
+    with Executor(workers=args.workers, scheduler=args.scheduler, progress=show) as executor:
+        for src, fd in zip(sources, rows):
+            progress = None
+            if show and not parallel:
+                desc = f"fitting {fd.label}" if batch else "fitting"
+                progress = tqdm(total=per_fit, desc=desc, file=sys.stderr, disable=None)
+            try:
+                comparison = compare_fits(
+                    fd,
+                    models=models,
+                    chains=tuple(args.chain),
+                    method=args.method,
+                    seed=args.seed,
+                    rank_by=args.rank_by,
+                    cross_validation=not args.no_cv,
+                    progress=progress,
+                    runner=executor.run if parallel else None,
+                    n_steps=args.steps,
+                    max_steps=args.max_steps,
+                    geometry=geometry,
+                )
+            finally:
+                if progress is not None:
+                    progress.close()
+            record = {
+                "data": str(src),
+                "seed": args.seed,
+                "rank_by": args.rank_by,
+                "ranking": comparison.table.to_dict(orient="records"),
+                "fits": [r.to_dict() for r in comparison.results],
+            }
+            records.append(clean(record))
+            summary.append(clean(_summary_row(src, comparison)))
+            if not args.json:
+                _print_fit(comparison, args, brief=batch)
     if args.json:
         if batch:
             out = {"seed": args.seed, "rank_by": args.rank_by, "summary": summary}
@@ -691,14 +696,15 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument(
         "--steps",
         type=count_value(50, MAX_STEPS, "steps"),
-        default=1000,
-        help="minimum MCMC steps per walker (default 1000)",
+        default=300,
+        help="minimum MCMC production steps per walker, after a 300-step pilot (default 300)",
     )
     sp.add_argument(
         "--max-steps",
         type=count_value(50, MAX_STEPS, "steps"),
         default=5000,
-        help="extend the chain up to this many steps until it is 50 autocorrelation times long",
+        help="extend the chain up to this many steps until it has converged "
+        "(50 autocorrelation times, R-hat < 1.01, bulk ESS >= 400; default 5000)",
     )
     sp.add_argument("--rank-by", default="rms_complex", choices=RANK_CHOICES)
     sp.add_argument(
@@ -709,6 +715,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sp.add_argument(
         "--no-cv", action="store_true", help="skip the leave-one-frequency-out cross-validation"
+    )
+    sp.add_argument(
+        "--workers",
+        type=count_value(1, 64, "workers"),
+        default=min(2, os.cpu_count() or 1),
+        help="local worker processes for the fits (default: 2, or 1 on one CPU; 1 runs in "
+        "this process; the numbers are the same)",
+    )
+    sp.add_argument(
+        "--scheduler",
+        default=os.environ.get("FITDF_SCHEDULER") or None,
+        metavar="ADDRESS",
+        help="run the fits on this Dask cluster (default: FITDF_SCHEDULER, else local)",
     )
 
     sp = add(

@@ -24,6 +24,7 @@ from fitdf.chains import solve_current
 from fitdf.inference.api import resolve_data
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.mcmc import (
+    MIN_ESS,
     MIN_STEPS_OVER_TAU,
     RHAT_MAX,
     autocorr_time,
@@ -91,11 +92,14 @@ def test_bimodal_chain_is_not_converged():
 
 
 def test_convergence_rule_thresholds():
-    assert RHAT_MAX == 1.05 and MIN_STEPS_OVER_TAU == 50
-    assert is_converged(50.0, {"a": 1.0, "b": 1.0499})
-    assert not is_converged(50.0, {"a": 1.0, "b": 1.05})  # R-hat must be below 1.05
+    assert RHAT_MAX == 1.01 and MIN_STEPS_OVER_TAU == 50 and MIN_ESS == 400
+    assert is_converged(50.0, {"a": 1.0, "b": 1.0099})
+    assert not is_converged(50.0, {"a": 1.0, "b": 1.01})  # R-hat must be below 1.01
     assert not is_converged(49.99, {"a": 1.0})  # and the chain 50 tau long
     assert not is_converged(1e6, {"a": 1.0, "b": 1.2})  # the worst parameter decides
+    ok = {"a": 1.0, "b": 1.0}
+    assert is_converged(50.0, ok, {"a": 400.0, "b": 5000.0})
+    assert not is_converged(50.0, ok, {"a": 399.9, "b": 5000.0})  # every bulk ESS >= 400
 
 
 def test_autocorrelation_time_of_an_ar1_chain():
@@ -190,7 +194,10 @@ def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch):
     r = fit_mcmc(problem, lsq, seed=1, n_steps=n_steps, n_walkers=n_walkers)
     d, ndim = r.diagnostics, problem.ndim + 2
     names = problem.names + ["sigma_magnitude", "sigma_phase_deg"]
-    # emcee's orientation: (draw, walker, parameter), the post-burn chain for R-hat and ESS
+    # emcee's orientation: (draw, walker, parameter), the post-burn chain for R-hat and ESS;
+    # production continues 8 of the pilot's walkers as independent chains
+    assert d["n_walkers"] == 8 and r.info["n_walkers"] == 8
+    n_walkers = d["n_walkers"]
     assert seen["autocorr_time"].shape == (n_steps, n_walkers, ndim)
     assert seen["chain_diagnostics"].shape == (n_steps - d["burn"], n_walkers, ndim)
     np.testing.assert_array_equal(seen["chain_diagnostics"], seen["autocorr_time"][d["burn"] :])
@@ -200,7 +207,7 @@ def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch):
     for i, name in enumerate(names):
         rhat, ess = arviz_reference(seen["chain_diagnostics"][..., i : i + 1])
         assert d["rhat"][name] == rhat and d["ess_bulk"][name] == ess
-    assert d["converged"] == is_converged(d["steps_over_tau"], d["rhat"])
+    assert d["converged"] == is_converged(d["steps_over_tau"], d["rhat"], d["ess_bulk"])
     worst = max(d["rhat"].values())
     assert any(w.startswith("R-hat") for w in r.warnings) == (worst >= RHAT_MAX)
 

@@ -8,6 +8,7 @@ import os
 import time
 from dataclasses import replace
 
+import pandas as pd
 import pytest
 
 import fitdf.report.executor as executor
@@ -36,6 +37,7 @@ SMALL = ReportSettings(
     n_starts=1,
     mcmc_top=1,
     n_steps=50,
+    max_steps=50,
     n_walkers=16,
     cv_top=1,
     cv_starts=1,
@@ -141,3 +143,18 @@ def test_report_scheduler_option_and_environment(monkeypatch, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "fitdf[dask]" in err[0], err
     assert list(tmp_path.iterdir()) == []  # no report, no temporary folder
+
+
+def test_fits_on_workers_give_the_serial_numbers():
+    # fitdf fit --workers 2: the fits and the cross-validation folds run in worker processes
+    # and must give exactly the numbers of one process (the CLI's default is 2 workers)
+    from fitdf.inference.ranking import compare_fits
+
+    kw = dict(models=["constant_width", "proportional_width"], n_starts=1, seed=3)
+    serial = compare_fits("B.1", **kw)
+    with Executor(workers=2) as ex:
+        pooled = compare_fits("B.1", runner=ex.run, **kw)
+    pd.testing.assert_frame_equal(pooled.table, serial.table, check_exact=True)
+    assert [r.model for r in pooled.results] == kw["models"]
+    assert all(p.values == s.values for p, s in zip(pooled.results, serial.results))
+    assert "cv_rms_complex" in serial.table and serial.table["cv_rms_complex"].notna().all()

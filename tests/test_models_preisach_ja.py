@@ -472,8 +472,9 @@ def test_ja_steady_loop_is_the_limit_cycle_from_demagnetised(name, A):
     assert change < 1e-9 * th["lambda_s"]  # the brute force has converged
     asc = JilesAtherton.ascending_branch(up[0], A, **th)
     desc = -JilesAtherton.ascending_branch(-down[0], A, **th)
-    assert np.max(np.abs(asc - up[1])) < 1e-7 * th["lambda_s"]
-    assert np.max(np.abs(desc - down[1])) < 1e-7 * th["lambda_s"]
+    # the default step control (_TOL = 1e-7 lambda_s per step) gives up to ~4e-7 lambda_s
+    assert np.max(np.abs(asc - up[1])) < 1e-6 * th["lambda_s"]
+    assert np.max(np.abs(desc - down[1])) < 1e-6 * th["lambda_s"]
 
 
 def test_ja_published_parameter_set():
@@ -547,10 +548,11 @@ def test_ja_small_signal_limit_and_tabulation_refinement():
     limit = th["c"] * L / (1 - th["zeta"] * th["c"])
     assert JilesAtherton.describing_function(0.0, **th) == pytest.approx(limit, rel=1e-14)
     assert JilesAtherton.describing_function(1e-9, **th) == pytest.approx(limit, rel=1e-5)
-    # default step control against a 1e-12 refinement (the tabulation error)
+    # default step control against a 1e-12 refinement (the tabulation error: 1.5e-7 here at
+    # the default _TOL = 1e-7; benchmarks/bench_ja.py measures it over realistic parameters)
     A = np.array([1e-5, 3e-4, 1e-3, 3e-3, 3e-2])
     fine = ja_describing_function(A, tol=1e-12, n_min=96, **th)
-    np.testing.assert_allclose(JilesAtherton.describing_function(A, **th), fine, rtol=1e-7)
+    np.testing.assert_allclose(JilesAtherton.describing_function(A, **th), fine, rtol=1e-6)
 
 
 def test_ja_batch_equals_loop_and_odd_symmetry():

@@ -67,6 +67,7 @@ TINY_HTML = ReportSettings(
     n_starts=1,
     mcmc_top=1,
     n_steps=60,
+    max_steps=60,
     n_walkers=16,
     cv_top=0,
     cross=(),

@@ -242,21 +242,48 @@ def _bdf2_response(steps):
 def _guess(pts, idx, hi):
     """Current amplitude at which a sinusoidal flux of the loop tip's size needs ``V``.
 
-    ``hypot(R a, w B(a; a)) = V`` on a grid of 49 amplitudes over 24 decades below ``V/R``
-    (first crossing, log-interpolated); only the tips are evaluated.
+    ``hypot(R a, w B(a; a)) = V`` on the amplitudes ``10^(j/2)`` (integer ``j``, two per
+    decade) from 24 decades below ``V/R``, and at ``V/R``: the first crossing,
+    log-interpolated. The tips depend only on the law's parameters (and on ``f`` for a
+    frequency-dependent law), not on ``V`` or ``R``, so they are evaluated once per distinct
+    parameter row on one lattice rather than per point (for Jiles-Atherton every tip is a
+    steady-loop solve). The lattice is absolute, so a point's guess does not depend on the
+    other points of the call.
     """
-    a = hi[:, None] * 10.0 ** (-np.arange(48, -1, -1) / 2.0)
-    kw = {k: v[idx, None] for k, v in pts.kw.items()}
-    tip = np.broadcast_to(pts.model.ascending_branch(a, a, pts.f[idx, None], **kw), a.shape)
-    h = np.hypot(pts.R[idx, None] * a, pts.w[idx, None] * tip) - pts.V[idx, None]
-    above = np.nan_to_num(h, nan=1.0) >= 0
-    k = np.argmax(above, axis=1)
+    lo = np.floor(2.0 * np.log10(np.min(hi) * 1e-24))
+    top = np.ceil(2.0 * np.log10(np.max(hi))) + 1.0
+    grid = 10.0 ** (np.arange(lo, top + 1.0) / 2.0)
+    cols = [v[idx] for v in pts.kw.values()]
+    if getattr(pts.model, "frequency_dependent", True):
+        cols.append(pts.f[idx])
+    keys = np.stack(cols, axis=1) if cols else np.zeros((idx.size, 1))
+    _, first, owner = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    rep = idx[first]
+    kw = {name: v[rep, None] for name, v in pts.kw.items()}
+    a = np.broadcast_to(grid, (rep.size, grid.size))
+    tips = np.broadcast_to(pts.model.ascending_branch(a, a, pts.f[rep, None], **kw), a.shape)
+    tip = tips[np.ravel(owner)]
+    h = np.hypot(pts.R[idx, None] * grid, pts.w[idx, None] * tip) - pts.V[idx, None]
+    # ... and ``V/R`` itself, the end of every point's range (exact for a dead zone, where
+    # the current is V/R): the amplitudes in play are the lattice's in [V/R 1e-24, V/R), then V/R
+    kw_own = {name: v[idx, None] for name, v in pts.kw.items()}
+    own = pts.model.ascending_branch(hi[:, None], hi[:, None], pts.f[idx, None], **kw_own)
+    h_hi = np.hypot(pts.R[idx] * hi, pts.w[idx] * np.broadcast_to(own, (idx.size, 1))[:, 0])
+    a = np.concatenate([np.broadcast_to(grid, h.shape), hi[:, None]], axis=1)
+    h = np.concatenate([h, (h_hi - pts.V[idx])[:, None]], axis=1)
+    first_in = np.argmax(grid >= hi[:, None] * 1e-24, axis=1)
+    last_below = np.sum(grid < hi[:, None], axis=1) - 1
+    cols = np.arange(grid.size + 1)
+    in_play = ((cols >= first_in[:, None]) & (cols <= last_below[:, None])) | (cols == grid.size)
+    above = in_play & (np.nan_to_num(h, nan=1.0) >= 0)
+    k = np.argmax(above, axis=1)  # V/R, the last column, is always above (R V/R >= V)
+    k0 = np.where(k == grid.size, last_below, k - 1)
+    k0 = np.where(k0 >= first_in, k0, k)
     rows = np.arange(idx.size)
-    k0 = np.maximum(k - 1, 0)
     h0, h1 = h[rows, k0], h[rows, k]
     la0, la1 = np.log(a[rows, k0]), np.log(a[rows, k])
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where((k > 0) & (h1 > h0), -h0 / (h1 - h0), 0.0)
+        t = np.where((k > k0) & (h1 > h0), -h0 / (h1 - h0), 0.0)
     return np.exp(la0 + np.clip(np.nan_to_num(t), 0.0, 1.0) * (la1 - la0))
 
 

@@ -73,7 +73,7 @@ def fit(
     noise: NoiseModel | None = None,
     fixed: dict | None = None,
     n_starts: int = 6,
-    n_steps: int = 1000,
+    n_steps: int = 300,
     max_steps: int | None = 5000,
     n_walkers: int | None = None,
     progress: bool = False,
@@ -95,8 +95,8 @@ def fit(
     seed : int
         Makes the multi-start and the chain reproducible.
     n_steps, max_steps : int
-        MCMC runs at least ``n_steps`` and extends up to ``max_steps`` until the chain is
-        50 autocorrelation times long.
+        MCMC runs a pilot, then at least ``n_steps`` and up to ``max_steps`` until the
+        chain has converged (:func:`fitdf.inference.mcmc.is_converged`).
     geometry : "auto", CoreGeometry or None
         The core's turns and dimensions: material bounds, the ``r_winding`` prior and the
         material constants of the result (:class:`~fitdf.inference.problem.FitProblem`).

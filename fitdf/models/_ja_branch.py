@@ -4,11 +4,17 @@ From the nodes ``(H_e, M, dM/dH_e)`` of the steady ascending branch
 (:mod:`fitdf.models._ja_integrate`) the parametric cubics are cut into pieces monotone in
 ``H`` (folds become vertical jumps); on them the numba kernels integrate ``N(A)``, invert
 ``H(H_e)`` to evaluate the branch at given inputs and sample it for tables.
+:class:`SteadyCache` keeps the nodes of recently solved rows (solve and evaluation are
+separate kernels, :func:`_steady_rows` and :func:`_eval_rows`) for the ``voltage`` chain,
+which evaluates one row's branch several times at new inputs.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import threading
+from collections import OrderedDict
 
 import numba
 import numpy as np
@@ -196,15 +202,55 @@ def _df_loop(A, lam, a, k, c, kap, tol, nmin, cap, tv, wv, out):
 
 
 @numba.njit(cache=True)
-def _branch_loop(A, lam, a, k, c, kap, tol, nmin, cap, x_flat, x_index, out):
-    rec_e, rec_m, rec_d, seg, t0, t1, h0, h1, mj0, mj1 = _work(cap)
+def _steady_rows(A, lam, a, k, c, kap, tol, nmin, cap):
+    """Steady-branch nodes of the rows, packed one after another: ``(buffer, offsets)``.
+
+    Row ``i`` is ``buffer[offsets[i]:offsets[i + 1]] = [n, rec_e, rec_m, rec_d]`` (``n``
+    nodes, exact in float64; ``n = 0`` where no loop was found). Solving and evaluating are
+    apart so that :class:`SteadyCache` can keep a row's nodes and evaluate them later at other
+    inputs (:func:`_eval_rows`), bit for bit as if solved again. The monotone pieces are not
+    kept: :func:`_pieces` costs ~1 us a row against ~50 us for the solve, and would more than
+    triple the memory.
+    """
+    rec_e, rec_m, rec_d = np.empty(cap), np.empty(cap), np.empty(cap)
+    off = np.empty(A.size + 1, dtype=np.int64)
+    off[0] = 0
+    buf = np.empty(512 * max(A.size, 1))
     for i in range(A.size):
         n = _steady(A[i], lam[i], a[i], k[i], c[i], kap[i], tol, nmin, rec_e, rec_m, rec_d)
-        count = (
-            _pieces(rec_e, rec_m, rec_d, n, kap[i], A[i], seg, t0, t1, h0, h1, mj0, mj1)
-            if n > 1
-            else 0
-        )
+        n = n if n > 1 else 0
+        o = off[i]
+        off[i + 1] = o + 1 + 3 * n
+        if off[i + 1] > buf.size:
+            grown = np.empty(max(2 * buf.size, off[i + 1]))
+            grown[:o] = buf[:o]
+            buf = grown
+        buf[o] = n
+        buf[o + 1 : o + 1 + n] = rec_e[:n]
+        buf[o + 1 + n : o + 1 + 2 * n] = rec_m[:n]
+        buf[o + 1 + 2 * n : o + 1 + 3 * n] = rec_d[:n]
+    return buf[: off[A.size]], off
+
+
+@numba.njit(cache=True)
+def _eval_rows(buf, off, A, kap, x_flat, x_index, out):
+    """The branch of packed row ``i`` (:func:`_steady_rows`) at ``x_flat[x_index[i]:x_index[i + 1]]``.
+
+    The pieces of each row (:func:`_pieces`), then :func:`_branch_at` at its inputs.
+    """
+    cap = 1
+    for i in range(off.size - 1):
+        cap = max(cap, int(buf[off[i]]))
+    seg = np.empty(4 * cap, dtype=np.int64)
+    t0, t1, h0, h1 = np.empty(4 * cap), np.empty(4 * cap), np.empty(4 * cap), np.empty(4 * cap)
+    mj0, mj1 = np.empty(4 * cap), np.empty(4 * cap)
+    for i in range(off.size - 1):
+        o = off[i] + 1
+        n = int(buf[o - 1])
+        rec_e, rec_m, rec_d = buf[o : o + n], buf[o + n : o + 2 * n], buf[o + 2 * n : o + 3 * n]
+        count = 0
+        if n > 1:
+            count = _pieces(rec_e, rec_m, rec_d, n, kap[i], A[i], seg, t0, t1, h0, h1, mj0, mj1)
         for j in range(x_index[i], x_index[i + 1]):
             if count < 1:
                 out[j] = np.nan
@@ -247,3 +293,91 @@ def _capacity(n_min):
 def _flat(*values):
     arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in values))
     return arrays[0].shape, [np.ascontiguousarray(v.reshape(-1)) for v in arrays]
+
+
+class SteadyCache:
+    """Packed steady branches (:func:`_steady_rows`) of recently seen rows, bounded, per process.
+
+    The exact ``voltage`` chain evaluates the branch of one ``(amplitude, theta)`` row several
+    times in a row at new inputs (node placement at 32, then 64 nodes, then the search's
+    first evaluation), and each steady-loop solve costs ~50 us against ~1 us per input. A
+    row is keyed by the bytes of its kernel inputs ``(|A|, lambda_s, a, k, c, alpha, tol,
+    n_min)``: equal bytes mean equal inputs, and the stored branch is what a new solve would
+    write, so results are bit-identical with or without the cache, whatever was called
+    before. At most ``max_rows`` rows and ``max_floats`` packed floats are kept, least
+    recently used rows going first (:meth:`_keep`); the defaults hold one batched call of
+    the chain (32 walkers x 119 points took 3808 rows, 1.4e6 floats) and bound the memory
+    to 16 MiB of branches plus ~300 bytes a row of keys and bookkeeping (< 19 MiB);
+    ``max_rows = 0`` turns the cache off. A lock guards the bookkeeping (threads); a forked
+    child starts empty (:func:`os.register_at_fork`), a spawned one imports it empty.
+    """
+
+    def __init__(self, max_rows=8192, max_floats=1 << 21):
+        self.max_rows, self.max_floats = int(max_rows), int(max_floats)
+        self._reset()
+
+    def _reset(self):
+        self._lock = threading.Lock()
+        self._rows = OrderedDict()
+        self._floats = 0
+
+    def clear(self):
+        """Forget every row."""
+        with self._lock:
+            self._rows.clear()
+            self._floats = 0
+
+    def __len__(self):
+        return len(self._rows)
+
+    def branches(self, A, lam, a, k, c, kap, tol, n_min):
+        """Packed branches of the rows (1-d float arrays of one length): ``(buffer, offsets)``."""
+        m = A.size
+        raw = np.empty((m, 8))
+        raw[:, :6] = np.column_stack((A, lam, a, k, c, kap))
+        raw[:, 6], raw[:, 7] = tol, n_min
+        data = raw.tobytes()
+        keys = [data[64 * i : 64 * (i + 1)] for i in range(m)]
+        with self._lock:
+            rows = [self._rows.get(key) for key in keys]
+        todo = {}  # key -> first row needing a solve (rows repeated within the call solve once)
+        for i, (key, row) in enumerate(zip(keys, rows)):
+            if row is None and key not in todo:
+                todo[key] = i
+        if todo:
+            sel = np.fromiter(todo.values(), dtype=np.int64, count=len(todo))
+            buf, off = _steady_rows(
+                *(v[sel] for v in (A, lam, a, k, c, kap)), tol, n_min, _capacity(n_min)
+            )
+            solved = {key: buf[off[j] : off[j + 1]].copy() for j, key in enumerate(todo)}
+            rows = [solved[key] if row is None else row for key, row in zip(keys, rows)]
+        self._keep(keys, rows)
+        off = np.zeros(m + 1, dtype=np.int64)
+        np.cumsum([row.size for row in rows], out=off[1:])
+        return (np.concatenate(rows) if m else np.empty(0)), off
+
+    def _keep(self, keys, rows):
+        """Make a call's rows the most recent (in call order), then trim to the bounds.
+
+        Rows of older calls go first, least recent first; a call larger than the bounds then
+        loses its last rows, so that repeating it hits on its first ones (plain LRU would
+        evict every row of a repeated large call before its reuse).
+        """
+        with self._lock:
+            current = dict(zip(keys, rows))
+            for key, row in current.items():
+                if key in self._rows:
+                    self._rows.move_to_end(key)
+                else:
+                    self._rows[key] = row
+                    self._floats += row.size
+            while len(self._rows) > self.max_rows or self._floats > self.max_floats:
+                oldest = next(iter(self._rows))
+                last = oldest in current  # only this call's rows are left
+                self._floats -= self._rows.popitem(last=last)[1].size
+
+
+#: The cache of :meth:`fitdf.models.jiles_atherton.JilesAtherton.ascending_branch`.
+STEADY_CACHE = SteadyCache()
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=STEADY_CACHE._reset)

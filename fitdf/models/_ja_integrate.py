@@ -18,7 +18,7 @@ __all__ = ["langevin", "coupling", "anhysteretic"]
 
 # Fine tabulation: cubic-Hermite interpolation error per step below _TOL lambda_s, at least
 # _NMIN steps per branch; coarse passes for the first secant iterations; node capacity.
-_TOL, _NMIN = 1e-8, 24
+_TOL, _NMIN = 1e-7, 24
 _COARSE_TOL, _COARSE_NMIN = 1e-5, 8
 _CAP = 1 << 13
 

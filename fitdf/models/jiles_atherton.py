@@ -75,8 +75,10 @@ evaluated on the parametric branch piece by piece with a 10-node Gauss-Legendre 
 ``t = (1 - cos(pi v))/2`` (which removes the square-root end behaviour at the tips), plus
 ``dM [sqrt(A^2 - x^2) - j x]`` for each jump. The referee applied to
 :meth:`JilesAtherton.ascending_branch` (the same cubics, inverted by Newton) agrees to ~1e-9;
-against the exact solution of the equations the default ``tol = 1e-8`` is within 3e-7
-(``Im N``: 7e-7) of a ``tol = 1e-10`` refinement over the tested parameter sets.
+against the exact solution of the equations the default ``tol = 1e-7`` is within 1.2e-6 of
+``|N|`` of a ``tol = 1e-11`` refinement over realistic parameters, and the branch within
+1e-5 of the tip (``benchmarks/bench_ja.py``; the voltage chain's DF moves by at most 3e-6,
+against its own ~2e-4 accuracy). ``tol = 1e-8`` was 1.4x slower per loop for 5x less.
 """
 
 from __future__ import annotations
@@ -86,9 +88,10 @@ import numpy as np
 from fitdf.models._ja_branch import (
     _T_OF_V,
     _W_OF_V,
-    _branch_loop,
+    STEADY_CACHE,
     _capacity,
     _df_loop,
+    _eval_rows,
     _flat,
     _table,
 )
@@ -185,8 +188,11 @@ def ja_describing_function(amplitude, *, lambda_s, a, k, c, zeta, tol=_TOL, n_mi
         Model parameters (:class:`JilesAtherton`).
     tol, n_min : float, int
         Step control: cubic-Hermite error per step below ``tol lambda_s``, at least ``n_min``
-        steps per branch. The defaults are within 3e-7 of a ``tol = 1e-10`` refinement;
-        ``tol = 1e-6, n_min = 12`` is ~2.5x faster, within 1e-5 (``Im N``: 6e-5).
+        steps per branch. Over realistic parameters (``benchmarks/bench_ja.py``) the
+        default ``tol = 1e-7`` is within 1.2e-6 of ``|N|`` of a ``tol = 1e-11``
+        refinement (``tol = 1e-8``: 6e-7, 1.4x slower); ``tol = 1e-6, n_min = 12`` is
+        ~1.3x faster again within 1.4e-5 (``Im N``: 9e-5 of ``|Im N|``); all are far
+        worse at the box's corners (nearly rectangular loops, ``A/a ~ 5e6``).
 
     Returns
     -------
@@ -288,7 +294,10 @@ class JilesAtherton(HysteresisModel):
         """Rising branch of the steady loop (the parametric cubic of its nodes); broadcasts.
 
         One steady loop is computed per distinct broadcast ``(amplitude, theta)`` element and
-        evaluated (Newton inversion of ``H(H_e)``) at all the ``x`` that share it.
+        evaluated (Newton inversion of ``H(H_e)``) at all the ``x`` that share it. The loops
+        of recent rows are kept (:class:`~fitdf.models._ja_branch.SteadyCache`, per process,
+        bounded): the ``voltage`` chain asks for the same rows at new ``x`` several times in
+        a row, and a kept loop gives the same bits as a new solve.
         """
         alpha = coupling(lambda_s=lambda_s, a=a, zeta=zeta)
         pshape = np.broadcast_shapes(*(np.shape(v) for v in (amplitude, lambda_s, a, k, c, alpha)))
@@ -298,22 +307,11 @@ class JilesAtherton(HysteresisModel):
         xs = np.broadcast_to(np.asarray(x, dtype=float), full).reshape(-1)
         order = np.argsort(owner, kind="stable")
         index = np.searchsorted(owner[order], np.arange(params[0].size + 1))
-        out = np.empty(xs.size)
         A, lam, a_, k_, c_, al = params
-        _branch_loop(
-            np.abs(A),
-            lam,
-            a_,
-            k_,
-            c_,
-            al,
-            _TOL,
-            _NMIN,
-            _capacity(_NMIN),
-            np.ascontiguousarray(xs[order]),
-            index,
-            out,
-        )
+        A = np.abs(A)
+        buf, off = STEADY_CACHE.branches(A, lam, a_, k_, c_, al, _TOL, _NMIN)
+        out = np.empty(xs.size)
+        _eval_rows(buf, off, A, al, np.ascontiguousarray(xs[order]), index, out)
         result = np.empty_like(out)
         result[order] = out
         return result.reshape(full)

@@ -186,8 +186,9 @@ def _mcmc_blocks(rec):
             rows,
         ),
         P(
-            "Converged means at least 50 autocorrelation times and R-hat < 1.05 for every parameter; the chains "
-            "are short by design (run time), so read unconverged posteriors as rough."
+            "Converged means at least 50 autocorrelation times, R-hat < 1.01 and bulk ESS >= 400 for "
+            "every parameter (a pilot is discarded; production is extended until converged, up to the "
+            "report's step limit). Read the posterior bands of an unconverged chain as rough."
         ),
     ]
     if rec["figures"].get("corner"):

@@ -120,15 +120,18 @@ class ReportSettings:
     mcmc_top, cv_top, cross_top : int or None
         MCMC, cross-validation and cross-impedance for the best N least-squares models
         of a block (None: all models; 0: none).
-    n_steps, n_walkers : int
-        MCMC chain length and walkers (short chains are reported as not converged).
+    n_steps, max_steps, n_walkers : int
+        MCMC production steps at least, at most (the chain is extended until it is
+        converged: :func:`fitdf.inference.mcmc.is_converged`) and walkers (None: twice the
+        dimensions plus two, the fewest differential evolution allows).
     mcmc_skip : tuple of str
         Laws left out of the report's MCMC (the best laws *without* them get the chains):
-        Jiles-Atherton through the exact chain costs about 3 s per walker batch, some
-        20 times Preisach, which a report run cannot afford; ``fitdf fit --method mcmc``
-        still samples it.
-    cv_starts : int
-        Least-squares starts per cross-validation fold.
+        Jiles-Atherton through the exact chain costs 20-60 ms per parameter set, 5-10 times
+        Preisach, and a chain needs 10^4-10^5 sets, which a report run cannot afford;
+        ``fitdf fit --method mcmc`` still samples it.
+    cv_starts : int or None
+        Least-squares starts per cross-validation fold (None: polished from the block's
+        optimum, :func:`fitdf.inference.ranking.cross_validate`).
     cross : tuple
         Cross-impedance directions (subset of :data:`CROSS_DIRECTIONS`).
     limit_cycles : bool
@@ -152,12 +155,13 @@ class ReportSettings:
     blocks: tuple | None = None
     methods: tuple = ("lsq", "mcmc")
     n_starts: int = 6
-    mcmc_top: int | None = 2
-    n_steps: int = 200
-    n_walkers: int = 24
+    mcmc_top: int | None = 3
+    n_steps: int = 300
+    max_steps: int = 2000
+    n_walkers: int | None = None
     mcmc_skip: tuple = ("jiles_atherton",)
     cv_top: int | None = 2
-    cv_starts: int = 2
+    cv_starts: int | None = None
     cross_top: int | None = 2
     cross: tuple = CROSS_DIRECTIONS
     limit_cycles: bool = True
@@ -203,9 +207,17 @@ def _job_lsq(data, model, seed, n_starts, chain):
     return fit(data, model, chain=chain, method="lsq", seed=seed, n_starts=n_starts)
 
 
-def _job_mcmc(lsq, seed, n_steps, n_walkers):
+def _job_mcmc(lsq, seed, n_steps, n_walkers, max_steps=None):
     return with_material(
-        fit_mcmc(lsq.problem, lsq, seed=seed, n_steps=n_steps, n_walkers=n_walkers)
+        fit_mcmc(
+            lsq.problem,
+            lsq,
+            seed=seed,
+            n_steps=n_steps,
+            n_walkers=n_walkers,
+            max_steps=max_steps,
+            check_every=100,
+        )
     )
 
 
@@ -263,7 +275,7 @@ _KIND_ORDER = {"limit": 0, "mcmc": 1, "cv": 2, "cross": 3}
 def _long_first(item):
     """Sort key of the second phase's jobs: long kinds and large blocks first (a short pool tail)."""
     key, (_, args) = item
-    size = rs.expected_cost(args[0].problem.data.label, "") if key[0] in ("mcmc", "cv") else 0.0
+    size = rs.expected_cost(args[0].problem.data.label, key[2]) if key[0] in ("mcmc", "cv") else 0.0
     return (_KIND_ORDER[key[0]], -size)
 
 
@@ -311,7 +323,7 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
         for m in _top(sampled, settings.mcmc_top if "mcmc" in settings.methods else 0):
             jobs[("mcmc", b.key, m)] = (
                 _job_mcmc,
-                (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers),
+                (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers, settings.max_steps),
             )
         for m in _top(ranked[b.key], settings.cv_top):
             jobs[("cv", b.key, m)] = (_job_cv, (lsq[(b.key, m)], seed, settings.cv_starts))

@@ -108,13 +108,22 @@ def _mcmc_finding(blocks) -> str | None:
     ratio = [d["steps_over_tau"] for d in diags]
     rhat = [d["rhat_max"] for d in diags]
     text = (
-        f"MCMC: {n_conv} of {len(diags)} chains meet the convergence rule (50 autocorrelation times and "
-        f"R-hat < 1.05); steps/tau {min(ratio):.0f}-{max(ratio):.0f}, max R-hat {min(rhat):.2f}-{max(rhat):.2f}"
+        f"MCMC: {n_conv} of {len(diags)} chains meet the convergence rule (50 autocorrelation times, "
+        f"R-hat < 1.01, bulk ESS >= 400); steps/tau {min(ratio):.0f}-{max(ratio):.0f}, max R-hat "
+        f"{min(rhat):.3f}-{max(rhat):.3f}"
+    )
+    bad = sorted(
+        {
+            f"{m} on {k}"
+            for k, rec in blocks.items()
+            for m, f in rec["fits_mcmc"].items()
+            if not f["diagnostics"].get("converged")
+        }
     )
     return text + (
-        ". The chains are short to keep the run short: read the posterior bands, corner plots and "
-        "LOO-ICs as rough."
-        if n_conv < len(diags)
+        f". Not converged within the report's step limit: {', '.join(bad)}; read their posterior "
+        "bands, corner plots and LOO-ICs as rough."
+        if bad
         else "."
     )
 
