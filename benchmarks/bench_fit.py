@@ -83,9 +83,12 @@ def bench_mcmc(core, model, steps, walkers):
     post = fit_mcmc(problem, lsq, seed=1, n_walkers=walkers, n_steps=steps)
     t_ours = time.perf_counter() - t0
     ess_ours = min(post.diagnostics["ess_bulk"][n] for n in problem.names)
-    # ESS of the full post-burn chain from emcee's integrated time, comparable with lmfit's below
-    tau_ours = np.array([post.diagnostics["tau"][n] for n in problem.names])
-    ess_tau_ours = (steps - post.diagnostics["burn"]) * walkers / tau_ours.max()
+    # ESS of the full post-burn chain from emcee's integrated time, comparable with lmfit's
+    # below; fitdf's production chain is n_walkers (8) independent chains after a pilot of
+    # ``walkers`` walkers (its time is in t_ours)
+    d = post.diagnostics
+    tau_ours = np.array([d["tau"][n] for n in problem.names])
+    ess_tau_ours = (d["n_steps"] - d["burn"]) * d["n_walkers"] / tau_ours.max()
 
     params = lmfit.Parameters()
     lo, hi = problem.internal_bounds().T
@@ -112,7 +115,8 @@ def bench_mcmc(core, model, steps, walkers):
     print(f"{'sampler':<28s} {'seconds':>8s} {'max tau':>8s} {'ESS':>9s} {'ESS/s':>9s}")
     print(
         f"{'fitdf (vectorised emcee)':<28s} {t_ours:8.2f} {tau_ours.max():8.1f} {ess_tau_ours:9.0f} "
-        f"{ess_tau_ours / t_ours:9.1f}   (ArviZ multi-chain bulk ESS: {ess_ours:.0f})"
+        f"{ess_tau_ours / t_ours:9.1f}   (ArviZ multi-chain bulk ESS: {ess_ours:.0f}; pilot "
+        f"{walkers} walkers x 2 x {d['pilot_steps']}, production {d['n_walkers']} chains)"
     )
     print(
         f"{'lmfit Minimizer.emcee':<28s} {t_lmfit:8.2f} {np.max(tau_l):8.1f} {ess_tau_lmfit:9.0f} "

@@ -34,7 +34,7 @@ from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.metrics import residual_metrics
 from fitdf.inference.problem import FitProblem
-from fitdf.models import model_names
+from fitdf.models import get_model, model_names
 from fitdf.params import PER_TABLE, parameter_base
 
 __all__ = [
@@ -98,7 +98,11 @@ def fit_all(
     # keyed by position too: a model may be listed twice (and must then be fitted twice)
     jobs = {(i, *combo): (_fit_job, (fd, *combo, seed, kw)) for i, combo in enumerate(combos)}
     if runner is not None:
-        return list(runner(jobs, "fitting").values())
+        # the dearest first (laws without a closed form: their branch is integrated or
+        # summed numerically), so that a pool is not left waiting on one long fit at the end
+        order = sorted(jobs, key=lambda key: (get_model(key[1]).closed_form, -key[0]))
+        done = runner({key: jobs[key] for key in order}, "fitting")
+        return [done[key] for key in jobs]
     out = []
     for fn, args in jobs.values():
         out.append(fn(*args))
@@ -321,7 +325,13 @@ def compare_fits(
             for i, r in enumerate(results)
             if r.method == "lsq"
         }
-        done = runner(jobs, "cross-validating") if runner is not None else None
+        if runner is not None:
+            order = sorted(
+                jobs, key=lambda key: (get_model(results[key[1]].model).closed_form, -key[1])
+            )
+            done = runner({key: jobs[key] for key in order}, "cross-validating")
+        else:
+            done = None
         if done is None:
             done = {key: fn(*args) for key, (fn, args) in jobs.items()}
         cv = {key[1]: value for key, value in done.items()}
