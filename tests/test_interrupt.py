@@ -26,6 +26,13 @@ ENV = {**os.environ, "PYTHONWARNINGS": "ignore"}
 ENV.pop("FITDF_SCHEDULER", None)
 
 
+def _interactive_signals():
+    """In the child: Ctrl-C's default disposition. A shell without job control starts its
+    background commands with SIGINT ignored, and a Python started so keeps ignoring it
+    (as a background job should); these tests are about a command run in a terminal."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(*args) -> subprocess.Popen:
     return subprocess.Popen(
         [sys.executable, "-m", "fitdf.cli", *args],
@@ -34,6 +41,7 @@ def _start(*args) -> subprocess.Popen:
         text=True,
         env=ENV,
         start_new_session=True,  # its own process group, as a shell runs a command
+        preexec_fn=_interactive_signals,
     )
 
 
@@ -156,6 +164,7 @@ def test_a_signal_stops_a_fit(sig, code, word):
         stderr=subprocess.PIPE,
         text=True,
         env=ENV,
+        preexec_fn=_interactive_signals,
     )
     assert proc.stdout.readline().strip() == "ready"
     time.sleep(4)  # into the fits
