@@ -75,6 +75,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # before numpy loads BLAS
 
 import numpy as np  # noqa: E402
+from bench_voltage import median_time  # noqa: E402  (benchmarks/ is the script's folder)
 
 from fitdf.chains import VoltageChain  # noqa: E402
 from fitdf.inference.api import resolve_data, resolve_geometry  # noqa: E402
@@ -104,16 +105,6 @@ REPORT_FITS = {
     "deltamax": ("deltamax", (0.042843, 3.435e-3, 3.35e-4, 0.031582, 0.99, 87.64)),
     "B.4": ("supermalloy", (0.051683, 4.62e-4, 2.18e-4, 0.162603, 0.882514, 53.64)),
 }
-
-
-def median_time(fn, repeats):
-    fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def cached(on):

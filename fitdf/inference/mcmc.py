@@ -345,7 +345,8 @@ def fit_mcmc(
                 start, pilot_steps, progress=progress, skip_initial_state_check=True
             ).coords
             random_state = pilot.random_state
-    if moves is None and pilot is not None:
+    adapted = moves is None and pilot is not None
+    if adapted:
         # independent chains: few and long (R-hat needs each chain long, not many of them)
         moves = production_moves(pilot.get_chain(discard=pilot_steps // 2, flat=True))
         start = start[: min(n_chains, n_walkers)]
@@ -453,8 +454,15 @@ def fit_mcmc(
         "n_walkers": n_walkers,
         "start": "least squares",
         "pilot_steps": pilot_steps,
-        "moves": "pilot: DE 0.8 + DE snooker 0.2 (discarded); production: "
-        + ("independence t from the pilot 0.9 + DE 0.1" if diag["pilot_steps"] else "given"),
+        "moves": (
+            "pilot (discarded): DE 0.8 + DE snooker 0.2, then the production moves adapted "
+            "to it; production: independent chains, independence t 0.5 + random walk 0.5, "
+            "adapted to the pilot's second round"
+            if adapted
+            else "given"
+            if pilot_steps > 0
+            else "DE 0.8 + DE snooker 0.2 (no pilot)"
+        ),
         "point_estimate": "highest-posterior draw (MAP)",
         "noise_priors": "log-uniform: sigma_magnitude 0.001..1, sigma_phase 0.1..50 deg",
         "fixed": dict(problem.fixed),

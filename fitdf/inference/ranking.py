@@ -97,18 +97,25 @@ def fit_all(
     combos = [(m, c, k) for m in models for c in chains for k in methods]
     # keyed by position too: a model may be listed twice (and must then be fitted twice)
     jobs = {(i, *combo): (_fit_job, (fd, *combo, seed, kw)) for i, combo in enumerate(combos)}
-    if runner is not None:
-        # the dearest first (laws without a closed form: their branch is integrated or
-        # summed numerically), so that a pool is not left waiting on one long fit at the end
-        order = sorted(jobs, key=lambda key: (get_model(key[1]).closed_form, -key[0]))
-        done = runner({key: jobs[key] for key in order}, "fitting")
-        return [done[key] for key in jobs]
-    out = []
-    for fn, args in jobs.values():
-        out.append(fn(*args))
-        if progress is not None:
-            progress.update(1)
-    return out
+    done = _run_jobs(jobs, runner, "fitting", {key: key[1] for key in jobs}, progress)
+    return list(done.values())
+
+
+def _run_jobs(jobs: dict, runner, desc: str, models: dict, progress=None) -> dict:
+    """``{key: fn(*args)}`` of ``{key: (fn, args)}`` (keys start with the job's position), in
+    the jobs' order; ``runner`` (:func:`fit_all`), if given, runs them, the dearest first:
+    laws without a closed form (their branch is integrated or summed numerically), so that a
+    pool is not left waiting on one long job at the end. ``models``: key -> law name."""
+    if runner is None:
+        out = {}
+        for key, (fn, args) in jobs.items():
+            out[key] = fn(*args)
+            if progress is not None:
+                progress.update(1)
+        return out
+    order = sorted(jobs, key=lambda key: (get_model(models[key]).closed_form, -key[0]))
+    done = runner({key: jobs[key] for key in order}, desc)
+    return {key: done[key] for key in jobs}
 
 
 def cross_validate(result, seed=0, n_starts=None) -> dict:
@@ -321,20 +328,11 @@ def compare_fits(
     cv = None
     if cross_validation:
         jobs = {
-            ("cv", i): (cross_validate, (r, seed))
-            for i, r in enumerate(results)
-            if r.method == "lsq"
+            (i,): (cross_validate, (r, seed)) for i, r in enumerate(results) if r.method == "lsq"
         }
-        if runner is not None:
-            order = sorted(
-                jobs, key=lambda key: (get_model(results[key[1]].model).closed_form, -key[1])
-            )
-            done = runner({key: jobs[key] for key in order}, "cross-validating")
-        else:
-            done = None
-        if done is None:
-            done = {key: fn(*args) for key, (fn, args) in jobs.items()}
-        cv = {key[1]: value for key, value in done.items()}
+        models = {key: results[key[0]].model for key in jobs}
+        done = _run_jobs(jobs, runner, "cross-validating", models)
+        cv = {key[0]: value for key, value in done.items()}
     return Comparison(ranking_table(results, rank_by, cv), tuple(results))
 
 
