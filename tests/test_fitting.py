@@ -170,3 +170,18 @@ def test_batched_residuals_equal_looped():
     batch = p.weighted_residuals(X)
     looped = np.array([p.weighted_residuals(x) for x in X])
     np.testing.assert_allclose(batch, looped, rtol=1e-10, atol=1e-10)
+
+
+def test_warm_start_also_polishes_the_screens_best_points():
+    from fitdf.inference.lsq import fit_lsq
+
+    problem = FitProblem(resolve_data("B.1"), "constant_width", "winding")
+    cold = fit_lsq(problem, seed=0, n_starts=2)
+    warm = fit_lsq(problem, seed=0, starts=cold.internal, also_screen=1)
+    assert warm.info["n_starts"] == 2 and warm.info["n_screen"] == 256
+    # the second start is the screen's best point, the cold fit's first start: same polish
+    assert warm.info["starts_chi2"][1] == pytest.approx(cold.info["starts_chi2"][0], rel=1e-9)
+    # a polish started at the optimum stays there
+    assert warm.info["starts_chi2"][0] == pytest.approx(min(cold.info["starts_chi2"]), rel=1e-6)
+    only = fit_lsq(problem, seed=0, starts=cold.internal)
+    assert only.info["n_starts"] == 1 and only.info["n_screen"] == 0

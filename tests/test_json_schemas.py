@@ -88,7 +88,7 @@ COMMANDS = [
             "--plant",
             PLANT,
             "--gain",
-            "100",
+            "150",  # a gain with a cycle: the schema's intersection fields are checked
             "--model",
             "constant_width",
             "--json",

@@ -415,3 +415,23 @@ def test_quick_run_reproduces_committed_rankings_of_two_tables(tmp_path):
         }
         for model, value in rms.items():  # same numbers, not just the same order
             assert value == pytest.approx(committed_rms[model], rel=1e-6), (key, model)
+
+
+def test_approximate_chain_refit_starts_at_the_exact_optimum():
+    from fitdf.inference.api import fit
+    from fitdf.inference.lsq import fit_lsq
+    from fitdf.inference.problem import FitProblem
+    from fitdf.report.build import _job_approx
+
+    exact = fit("B.1", "constant_width", n_starts=1)
+    approx = _job_approx(exact, 0, "winding")
+    assert approx.chain == "winding" and approx.problem.names == exact.problem.names
+    assert approx.info["n_starts"] == 2  # the exact optimum and the screen's best point
+    p = exact.problem
+    alone = fit_lsq(
+        FitProblem(p.data, p.model, "winding", p.noise, p.fixed, p.geometry),
+        seed=0,
+        starts=exact.internal,
+    )
+    assert approx.info["starts_chi2"][0] == pytest.approx(alone.info["starts_chi2"][0], rel=1e-12)
+    assert approx.metrics["chi2"] <= alone.metrics["chi2"] + 1e-9
