@@ -347,3 +347,35 @@ def test_current_solver_respects_the_evaluation_budget():
         current, z = solve_current(impedance, np.array([2.0]), np.array([70.0]), budget=budget)
         assert abs(current[0] * abs(70.0 + z[0]) / 2.0 - 1) <= 1e-12
         assert max(sizes) == largest, sizes
+
+
+class _AR1Sampler:
+    """Stands in for emcee's sampler in :func:`mcmc._run_until_converged`: each run appends
+    AR(1) draws to 8 independent walkers (stationary start, tau = (1 + phi) / (1 - phi))."""
+
+    def __init__(self, phi, seed=0):
+        self.phi, self.rng = phi, np.random.default_rng(seed)
+        self.chain = self.rng.normal(size=(1, 8, 1))
+
+    @property
+    def iteration(self):
+        return self.chain.shape[0]
+
+    def run_mcmc(self, state, n, **_):
+        more = ar1(self.phi, n + 1, self.chain[-1, :, 0], self.rng)[1:, :, None]
+        self.chain = np.concatenate([self.chain, more])
+        return state
+
+    def get_chain(self):
+        return self.chain
+
+
+def test_a_chain_too_slow_for_max_steps_is_given_up_early():
+    slow = _AR1Sampler(phi=0.98)  # tau ~ 99: 50 tau ~ 5000 steps, more than max_steps
+    tau, given_up = mcmc._run_until_converged(slow, None, 300, 2000, 100, ["x"], False)
+    assert slow.iteration < 2000  # stopped before spending max_steps
+    assert given_up > 2000 and given_up == pytest.approx(MIN_STEPS_OVER_TAU * tau[0], abs=1)
+    fast = _AR1Sampler(phi=0.5)  # tau = 3: converged within the budget, not given up
+    tau, given_up = mcmc._run_until_converged(fast, None, 300, 2000, 100, ["x"], False)
+    assert given_up is None and fast.iteration < 2000
+    assert fast.iteration / tau[0] >= MIN_STEPS_OVER_TAU

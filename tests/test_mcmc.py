@@ -86,3 +86,29 @@ def test_sampling_leaves_the_least_squares_problem_cold():
     assert problem.warm_current is None and post.problem.warm_current is not None
     # the warm copy is the same problem otherwise: same parameters, data and chain
     assert post.problem.names == problem.names and post.problem.chain is problem.chain
+
+
+def test_shape_change_of_pilot_rounds():
+    from fitdf.inference.mcmc import _shape_change
+
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=(4000, 3)), rng.normal(size=(4000, 3))
+    assert _shape_change(a, b) < 0.1  # the same law: settled
+    wider = b * np.array([1.0, 3.0, 1.0])
+    assert _shape_change(a, wider) == pytest.approx(np.log(3.0), abs=0.1)  # still spreading
+    shifted = b + np.array([0.0, 0.0, 1.0])
+    assert _shape_change(a, shifted) == pytest.approx(1.0, abs=0.1)  # still moving
+
+
+def test_pilot_rounds_stop_once_settled(problem, lsq):
+    # a near-Gaussian posterior: one adapted round after differential evolution settles it
+    r = fit_mcmc(problem, lsq, seed=3, n_steps=200, n_walkers=16)
+    rounds = r.diagnostics["pilot_rounds"]
+    assert 2 <= len(rounds) <= 7
+    last = rounds[-1]
+    if len(rounds) < 7:  # stopped early: because the last round had settled
+        assert last["shape_change"] <= 0.25 and last["acceptance"] >= 0.15
+    assert all(x["shape_change"] > 0.25 or x["acceptance"] < 0.15 for x in rounds[1:-1])
+    # with one round allowed, the pilot is differential evolution + one adapted round
+    one = fit_mcmc(problem, lsq, seed=3, n_steps=200, n_walkers=16, max_pilot_rounds=1)
+    assert len(one.diagnostics["pilot_rounds"]) == 2

@@ -43,15 +43,19 @@ def _screen(problem: FitProblem, rng, n_screen: int, n_starts: int):
 
 #: A polish that scipy stops on its step tolerance in a long, flat valley (the law's scale
 #: against the winding resistance, at one source impedance) has often not reached the
-#: valley's floor: its trust region shrank on the exact chain's discretisation noise. It is
-#: started again from where it stopped while that lowers chi-square by more than this
-#: (a tenth of a unit: far below what moves AICc or a ranking) ...
+#: valley's floor: its trust region shrank on the exact chain's discretisation noise. The
+#: starts that ended within this chi-square of the best are started again from where they
+#: stopped (the others only tell which basins there are) ...
+RESTART_WINDOW = 10.0
+#: ... while that lowers chi-square by more than this (a tenth of a unit: far below what
+#: moves AICc or a ranking) ...
 RESTART_GAIN = 0.1
 #: ... at most this many times, within the start's ``max_nfev``.
 MAX_RESTARTS = 5
 
 
-def _polish_once(problem: FitProblem, start, max_nfev: int):
+def _polish(problem: FitProblem, start, max_nfev: int):
+    """One trust-region least-squares run from ``start``: ``(out, x, chi2)``."""
     lo, hi = problem.internal_bounds().T
 
     params = lmfit.Parameters()
@@ -72,15 +76,15 @@ def _polish_once(problem: FitProblem, start, max_nfev: int):
     return out, x, float(np.sum(residual(out.params) ** 2))
 
 
-def _polish(problem: FitProblem, start, max_nfev: int):
-    """Trust-region least squares from ``start``, restarted where it stopped while that still
-    pays (:data:`RESTART_GAIN`); ``out.nfev`` counts every restart."""
-    out, x, cost = _polish_once(problem, start, max_nfev)
+def _polish_further(problem: FitProblem, polished, max_nfev: int):
+    """Restart a polish ``(out, x, chi2)`` where it stopped while that still pays
+    (:data:`RESTART_GAIN`); ``out.nfev`` then counts every restart."""
+    out, x, cost = polished
     used = out.nfev
     for _ in range(MAX_RESTARTS):
         if used >= max_nfev:
             break
-        again, x_again, cost_again = _polish_once(problem, x, max_nfev - used)
+        again, x_again, cost_again = _polish(problem, x, max_nfev - used)
         used += again.nfev
         if not cost_again < cost:
             break
@@ -89,7 +93,7 @@ def _polish(problem: FitProblem, start, max_nfev: int):
         if gain <= RESTART_GAIN:
             break
     out.nfev = used
-    return out, x
+    return out, x, cost
 
 
 #: Step of the central differences of the covariance's Jacobian (internal units: decades for
@@ -238,9 +242,14 @@ def fit_lsq(
         else:
             n_screen = 0
     polished = [_polish(problem, s, max_nfev) for s in starts]
-    costs = np.array([np.sum(problem.objective_residuals(x) ** 2) for _, x in polished])
+    floor = min(cost for *_, cost in polished)
+    polished = [
+        _polish_further(problem, p, max_nfev) if p[2] <= floor + RESTART_WINDOW else p
+        for p in polished
+    ]
+    costs = np.array([np.sum(problem.objective_residuals(x) ** 2) for _, x, _ in polished])
     best = int(np.argmin(costs))
-    out, x = polished[best]
+    out, x, _ = polished[best]
     n_agree = int(np.sum(costs - costs[best] <= 1.0))
 
     covar = covariance(problem, x)

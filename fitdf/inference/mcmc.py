@@ -12,9 +12,15 @@ Priors
 Sampler
     ``emcee.EnsembleSampler(..., vectorize=True)``: the log-probability of all walkers is
     one batched call. A *pilot* of ``2 d + 2`` (or more) walkers starts in a Gaussian ball
-    of the least-squares covariance (clipped inside the bounds) and runs two rounds:
-    differential-evolution moves, then the production moves adapted to the first round's
-    second half. It is burn-in and adaptation, and is discarded. *Production* continues
+    of the least-squares covariance (clipped inside the bounds) and runs in rounds:
+    differential-evolution moves, then the production moves adapted to the previous
+    round's second half, again until a round's draws have the shape of the previous
+    round's and its moves accept (up to ``max_pilot_rounds`` adapted rounds, 6). The
+    walkers start at the least-squares optimum, which is not the posterior's centre where
+    the fitted noise scales weigh magnitude and phase differently or a ridge runs to a
+    bound: on constant_width/B.3 one adapted round left the production chains at R-hat 1.5
+    (tau ~200), six converge in 2300 steps (tau ~17). It is burn-in and adaptation, and is
+    discarded. *Production* continues
     ``n_chains`` (8) of the pilot's walkers as independent Markov chains with two moves,
     each half the time, both adapted to the pilot's last round: an independence
     Metropolis-Hastings move whose proposal is a multivariate Student t (5 degrees of
@@ -34,7 +40,9 @@ Diagnostics
     rank-normalised R-hat and bulk ESS from ArviZ (walkers as chains), all on the
     production chain; PSIS-LOO and WAIC from the pointwise log-likelihood. Converged means
     at least 50 autocorrelation times, every R-hat below 1.01 and every bulk ESS at least
-    400 (:func:`is_converged`); the chain is extended until it is, up to ``max_steps``.
+    400 (:func:`is_converged`); the chain is extended until it is, up to ``max_steps``,
+    and no longer once 50 autocorrelation times exceed ``max_steps`` (it cannot converge
+    there: its time goes to the chains that can; a warning names the length it needs).
 Point estimate
     ``values``, residuals and metrics use the draw of highest posterior; intervals are
     posterior percentiles (a warning says when the per-parameter medians fit far worse,
@@ -263,12 +271,39 @@ def _tau_range(tau, n_steps):
     return float(finite.min()), float(finite.max())
 
 
+#: A pilot round has settled when its draws' shape (:func:`_shape_change`) differs from
+#: the previous round's by at most this ...
+SETTLED_SHAPE_CHANGE = 0.25
+#: ... and its adapted moves accepted at least this fraction.
+SETTLED_ACCEPTANCE = 0.15
+
+
+def _shape_change(before, after) -> float:
+    """How far the draws ``(n, d)`` of one pilot round moved from the previous round's: the
+    largest over parameters of the mean's shift in units of the new spread and of
+    ``|log|`` of the ratio of spreads. Near 0 when both rounds sample the same
+    posterior; large while the walkers still climb or spread along a ridge (which a
+    steady log-posterior alone does not show)."""
+    sd_before, sd_after = np.std(before, axis=0), np.std(after, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        shift = np.abs(np.mean(after, axis=0) - np.mean(before, axis=0)) / sd_after
+        spread = np.abs(np.log(sd_after / sd_before))
+    both = np.concatenate([shift, spread])
+    return float(np.max(np.where(np.isfinite(both), both, np.inf)))
+
+
 def _burn(tau, n_steps):
     return min(int(np.ceil(3 * _tau_range(tau, n_steps)[1])), n_steps // 2)
 
 
 def _run_until_converged(sampler, state, n_steps, max_steps, check_every, names, progress):
-    """Run ``n_steps``, then blocks of ``check_every`` until :func:`is_converged` or ``max_steps``."""
+    """Run ``n_steps``, then blocks of ``check_every`` until :func:`is_converged` or ``max_steps``.
+
+    Stops early, too, once the chain cannot converge within ``max_steps``: when 50 times its
+    autocorrelation time so far already exceeds ``max_steps`` (the estimate from a short
+    chain is low, if anything, so this gives up only on chains that are surely too slow).
+    Returns ``(tau, given_up)``: ``given_up`` is that projected length, else None.
+    """
     # (fewer independent chains than dimensions are not "linearly independent walkers", the
     # check emcee makes for its ensemble moves)
     state = sampler.run_mcmc(state, n_steps, progress=progress, skip_initial_state_check=True)
@@ -277,10 +312,13 @@ def _run_until_converged(sampler, state, n_steps, max_steps, check_every, names,
         tau = autocorr_time(chain)
         n = sampler.iteration
         if n >= max_steps:
-            return tau
+            return tau, None
+        needed = MIN_STEPS_OVER_TAU * _tau_range(tau, n)[1]
+        if needed > max_steps:
+            return tau, int(np.ceil(needed))
         d = chain_diagnostics(chain[_burn(tau, n) :], names)
         if is_converged(n / _tau_range(tau, n)[1], d["rhat"], d["ess_bulk"]):
-            return tau
+            return tau, None
         state = sampler.run_mcmc(
             state, min(check_every, max_steps - n), progress=progress, skip_initial_state_check=True
         )
@@ -299,16 +337,20 @@ def fit_mcmc(
     check_every: int = 250,
     pilot_steps: int | None = None,
     n_chains: int = 8,
+    max_pilot_rounds: int = 6,
 ) -> PosteriorResult:
     """Sample the posterior of ``problem`` starting from the least-squares result ``lsq``.
 
-    A pilot of ``pilot_steps`` (default ``min(300, n_steps)``) with ``n_walkers`` walkers
-    (at least ``2 d + 2``) adapts the production moves (module docstring) and is discarded;
+    A pilot of rounds of ``pilot_steps`` (default ``min(300, n_steps)``) with ``n_walkers``
+    walkers (at least ``2 d + 2``): one of differential evolution, then up to
+    ``max_pilot_rounds`` of adapted moves until settled; it adapts the production moves
+    (module docstring) and is discarded;
     production continues ``n_chains`` of its walkers as independent chains. ``moves``, if
     given, replace the adapted ones (and production keeps every walker).
     Production runs at least ``n_steps`` steps, then keeps going in blocks of
     ``check_every`` until the chain is converged (:func:`is_converged`) or ``max_steps``
-    (default ``n_steps``: no extension) is reached. The stopping rule only reads the
+    (default ``n_steps``: no extension) is reached, or until 50 of its autocorrelation
+    times exceed ``max_steps`` (it cannot converge there). The stopping rule only reads the
     chain, so a seed still fixes the result.
     """
     rng = np.random.default_rng(seed)
@@ -325,14 +367,16 @@ def fit_mcmc(
     pilot_steps = min(300, n_steps) if pilot_steps is None else int(pilot_steps)
     p0 = _initial_ball(problem, lsq, n_walkers, rng, logpost.bounds)
     start, random_state = p0, np.random.RandomState(seed).get_state()
-    pilot = None
+    pilot, pilot_rounds = None, []
     if pilot_steps > 0:
-        # two rounds: differential evolution from the ball, then the moves adapted to its
-        # second half (a better estimate of the posterior's shape: they mix several times
-        # faster than DE), adapted again at the end
-        for round_moves in (default_moves(), None):
-            if round_moves is None:
-                round_moves = production_moves(pilot.get_chain(discard=pilot_steps // 2, flat=True))
+        # differential evolution from the ball, then rounds of the moves adapted to the
+        # previous round's second half (a better estimate of the posterior's shape: they mix
+        # several times faster than DE), until a round's draws have the previous round's
+        # shape (SETTLED_SHAPE_CHANGE) and its moves accept (SETTLED_ACCEPTANCE), or
+        # ``max_pilot_rounds``: walkers started at the least-squares optimum may still be
+        # spreading along a ridge, or moving to where the fitted noise puts the mass
+        round_moves, previous = default_moves(), None
+        for k in range(1 + max(int(max_pilot_rounds), 1)):
             pilot = emcee.EnsembleSampler(
                 n_walkers, ndim, logpost, vectorize=True, moves=round_moves
             )
@@ -345,6 +389,14 @@ def fit_mcmc(
                 start, pilot_steps, progress=progress, skip_initial_state_check=True
             ).coords
             random_state = pilot.random_state
+            draws = pilot.get_chain(discard=pilot_steps // 2, flat=True)
+            change = np.inf if previous is None else _shape_change(previous, draws)
+            acceptance = float(np.mean(pilot.acceptance_fraction))
+            pilot_rounds.append({"shape_change": change, "acceptance": acceptance})
+            if k >= 1 and change <= SETTLED_SHAPE_CHANGE and acceptance >= SETTLED_ACCEPTANCE:
+                break
+            previous = draws
+            round_moves = production_moves(draws)
     adapted = moves is None and pilot is not None
     if adapted:
         # independent chains: few and long (R-hat needs each chain long, not many of them)
@@ -357,7 +409,9 @@ def fit_mcmc(
     sampler.random_state = random_state
     n_walkers = len(start)
     max_steps = max(n_steps, max_steps or n_steps)
-    tau = _run_until_converged(sampler, start, n_steps, max_steps, check_every, names, progress)
+    tau, given_up = _run_until_converged(
+        sampler, start, n_steps, max_steps, check_every, names, progress
+    )
     n_steps = sampler.iteration
 
     tau_min, tau_max = _tau_range(tau, n_steps)
@@ -386,10 +440,18 @@ def fit_mcmc(
         }
     )
     diag["pilot_steps"] = pilot_steps
+    diag["pilot_rounds"] = pilot_rounds
+    diag["max_steps"] = max_steps
+    diag["steps_needed"] = given_up
     diag["converged"] = is_converged(diag["steps_over_tau"], diag["rhat"], diag["ess_bulk"])
 
     warns = []
-    if diag["steps_over_tau"] < MIN_STEPS_OVER_TAU:
+    if given_up:
+        warns.append(
+            f"stopped at {n_steps} steps: at its autocorrelation time (max tau {tau_max:.0f}) "
+            f"the chain needs ~{given_up} steps to converge, more than max_steps {max_steps}"
+        )
+    elif diag["steps_over_tau"] < MIN_STEPS_OVER_TAU:
         warns.append(
             f"chain of {n_steps} steps is shorter than 50 autocorrelation times "
             f"(max tau {tau_max:.0f}); run more --steps"
@@ -457,7 +519,7 @@ def fit_mcmc(
         "moves": (
             "pilot (discarded): DE 0.8 + DE snooker 0.2, then the production moves adapted "
             "to it; production: independent chains, independence t 0.5 + random walk 0.5, "
-            "adapted to the pilot's second round"
+            "adapted to the pilot's last round"
             if adapted
             else "given"
             if pilot_steps > 0

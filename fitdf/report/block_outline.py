@@ -165,6 +165,7 @@ def _mcmc_blocks(rec):
                 d["acceptance_mean"],
                 d["pareto_k_max"],
                 d["converged"],
+                d.get("steps_needed") or "",
             ]
         )
     out = [
@@ -182,13 +183,16 @@ def _mcmc_blocks(rec):
                 "acceptance",
                 "max Pareto k",
                 "converged",
+                "steps needed",
             ],
             rows,
         ),
         P(
             "Converged means at least 50 autocorrelation times, R-hat < 1.01 and bulk ESS >= 400 for "
             "every parameter (a pilot is discarded; production is extended until converged, up to the "
-            "report's step limit). Read the posterior bands of an unconverged chain as rough."
+            "report's step limit, and stopped early once 50 autocorrelation times exceed that limit: "
+            "'steps needed' is then the length it would take). Read the posterior bands of an "
+            "unconverged chain as rough."
         ),
     ]
     if rec["figures"].get("corner"):

@@ -120,9 +120,16 @@ def _mcmc_finding(blocks) -> str | None:
             if not f["diagnostics"].get("converged")
         }
     )
+    n_given_up = sum(bool(d.get("steps_needed")) for d in diags)
+    given_up = (
+        f" ({n_given_up} stopped early: at their autocorrelation times they need more steps "
+        "than the limit)"
+        if n_given_up
+        else ""
+    )
     return text + (
-        f". Not converged within the report's step limit: {', '.join(bad)}; read their posterior "
-        "bands, corner plots and LOO-ICs as rough."
+        f". Not converged within the report's step limit: {', '.join(bad)}{given_up}; read their "
+        "posterior bands, corner plots and LOO-ICs as rough."
         if bad
         else "."
     )
