@@ -697,14 +697,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--steps",
         type=count_value(50, MAX_STEPS, "steps"),
         default=300,
-        help="minimum MCMC production steps per walker, after a 300-step pilot (default 300)",
+        help="minimum MCMC production steps per chain, after a pilot of 300-step rounds "
+        "(default 300)",
     )
     sp.add_argument(
         "--max-steps",
         type=count_value(50, MAX_STEPS, "steps"),
         default=5000,
         help="extend the chain up to this many steps until it has converged "
-        "(50 autocorrelation times, R-hat < 1.01, bulk ESS >= 400; default 5000)",
+        "(50 autocorrelation times, R-hat < 1.01, bulk ESS >= 400; default 5000); a chain "
+        "whose 50 autocorrelation times exceed it stops early",
     )
     sp.add_argument("--rank-by", default="rms_complex", choices=RANK_CHOICES)
     sp.add_argument(

@@ -196,7 +196,10 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
             "ess_bulk_min",
             "acceptance_mean",
             "converged",
+            "steps_needed",
+            "pilot_rounds",
         } <= set(diag)
+        assert len(diag["pilot_rounds"]) >= 2 and diag["max_steps"] == TINY.max_steps
         assert rec["fits_lsq"]["proportional_width"]["parameters"]
         assert rec["data_summary"]["rows_used"] == len(
             rec["fits_lsq"]["proportional_width"]["rows"]["input_v"]

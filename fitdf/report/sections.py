@@ -189,6 +189,9 @@ _DIAG_KEYS = (
     "ess_bulk",
     "sigma_magnitude_interval",
     "sigma_phase_deg_interval",
+    "max_steps",
+    "steps_needed",
+    "pilot_rounds",
 )
 
 
