@@ -251,7 +251,7 @@ def fit_lsq(
         _polish_further(problem, p, max_nfev) if p[2] <= floor + RESTART_WINDOW else p
         for p in polished
     ]
-    costs = np.array([np.sum(problem.objective_residuals(x) ** 2) for _, x, _ in polished])
+    costs = np.array([cost for *_, cost in polished])
     best = int(np.argmin(costs))
     out, x, _ = polished[best]
     n_agree = int(np.sum(costs - costs[best] <= 1.0))

@@ -400,7 +400,7 @@ def fit_mcmc(
     adapted = moves is None and pilot is not None
     if adapted:
         # independent chains: few and long (R-hat needs each chain long, not many of them)
-        moves = production_moves(pilot.get_chain(discard=pilot_steps // 2, flat=True))
+        moves = production_moves(draws)  # the last pilot round's second half
         start = start[: min(n_chains, n_walkers)]
     elif moves is None:
         moves = default_moves()
