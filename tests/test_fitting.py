@@ -172,9 +172,12 @@ def test_batched_residuals_equal_looped():
     np.testing.assert_allclose(batch, looped, rtol=1e-10, atol=1e-10)
 
 
-def test_warm_start_also_polishes_the_screens_best_points():
+def test_warm_start_also_polishes_the_screens_best_points(monkeypatch):
+    from fitdf.inference import lsq
     from fitdf.inference.lsq import fit_lsq
 
+    # every start polished to its end (no stop in a known basin): the starts are compared
+    monkeypatch.setattr(lsq, "MERGE_CHI2", -1.0)
     problem = FitProblem(resolve_data("B.1"), "constant_width", "winding")
     cold = fit_lsq(problem, seed=0, n_starts=2)
     warm = fit_lsq(problem, seed=0, starts=cold.internal, also_screen=1)
@@ -185,3 +188,27 @@ def test_warm_start_also_polishes_the_screens_best_points():
     assert warm.info["starts_chi2"][0] == pytest.approx(min(cold.info["starts_chi2"]), rel=1e-6)
     only = fit_lsq(problem, seed=0, starts=cold.internal)
     assert only.info["n_starts"] == 1 and only.info["n_screen"] == 0
+
+
+def test_a_start_that_reaches_a_known_basin_stops_there(monkeypatch):
+    """Later starts stop once within MERGE_CHI2 / MERGE_SIGMAS of an optimum an earlier
+    start reached: the same optimum, for fewer evaluations."""
+    from fitdf.inference import lsq
+
+    problem = FitProblem(resolve_data("B.1"), "constant_width", "winding")
+    merged = lsq.fit_lsq(problem, seed=0, n_starts=4)
+    window = lsq.MERGE_CHI2
+    monkeypatch.setattr(lsq, "MERGE_CHI2", -1.0)
+    full = lsq.fit_lsq(problem, seed=0, n_starts=4)
+    assert not any(full.info["starts_merged"])
+    flags = merged.info["starts_merged"]
+    assert any(flags) and not flags[0]
+    best = min(full.info["starts_chi2"])
+    assert min(merged.info["starts_chi2"]) == pytest.approx(best, rel=1e-6)
+    costs = merged.info["starts_chi2"]
+    for i, flag in enumerate(flags):
+        if flag:  # stopped no lower than, and at most MERGE_CHI2 above, an earlier optimum
+            earlier = [c for c, f in zip(costs[:i], flags[:i]) if not f]
+            assert any(c - 1e-9 <= costs[i] <= c + window for c in earlier)
+    assert merged.info["nfev_total"] < full.info["nfev_total"]
+    assert merged.values == pytest.approx(full.values, rel=1e-3)

@@ -9,6 +9,14 @@ Likelihood
 Priors
     Uniform on each parameter's internal coordinate inside its declared bounds: uniform
     for ordinary parameters, log-uniform for log-scaled ones.
+Sampler coordinates
+    The walkers move in the logit coordinates of the prior box (:class:`BoxCoordinates`,
+    with the log-Jacobian added, so the posterior is the same): a parameter the data leave
+    undetermined, or push against a bound, is there a logistic density or an exponential
+    tail instead of a flat box whose walls reject half the proposals (frequency_hc on B.5,
+    with ``hc_a`` and ``hc_b`` at 0: acceptance 0.02-0.05 and no convergence in the box,
+    converged in 1300 steps in logit coordinates). Draws, diagnostics and the point
+    estimate are those of the internal parameters.
 Sampler
     ``emcee.EnsembleSampler(..., vectorize=True)``: the log-probability of all walkers is
     one batched call. A *pilot* of ``2 d + 2`` (or more) walkers starts in a Gaussian ball
@@ -56,6 +64,7 @@ import warnings
 import emcee
 import numpy as np
 import pandas as pd
+from scipy.special import expit, log_expit, logit
 
 from fitdf._arviz import az
 from fitdf.inference.metrics import information_criteria, residual_metrics
@@ -88,18 +97,36 @@ NOISE_BOUNDS = np.array([[-3.0, 0.0], [-1.0, np.log10(50.0)]])
 
 
 class LogPosterior:
-    """Vectorised log-posterior over ``(n_walkers, P + 2)`` internal vectors."""
+    """Vectorised log-posterior over ``(n_walkers, P + 2)`` internal vectors.
 
-    def __init__(self, problem: FitProblem):
+    With ``logit=True`` it takes the sampler's coordinates ``z`` of
+    :class:`BoxCoordinates` instead, and adds the log-Jacobian, so that the posterior of
+    the internal vector is the same.
+    """
+
+    def __init__(self, problem: FitProblem, logit: bool = False):
         self.problem = problem
         self.bounds = np.vstack([problem.internal_bounds(), NOISE_BOUNDS])
+        self.box = BoxCoordinates(self.bounds) if logit else None
 
     def pointwise(self, X):
         P = self.problem.ndim
         return self.problem.pointwise_loglike(X[..., :P], 10.0 ** X[..., P], 10.0 ** X[..., P + 1])
 
-    def __call__(self, X):
-        X = np.atleast_2d(X)
+    def to_internal(self, Z):
+        """Internal vectors (prior box) of sampler coordinates (the identity without logit)."""
+        return Z if self.box is None else self.box.to_box(Z)
+
+    def to_sampler(self, X):
+        return X if self.box is None else self.box.from_box(X)
+
+    def __call__(self, Z):
+        Z = np.atleast_2d(Z)
+        if self.box is not None:
+            return self._box_posterior(self.box.to_box(Z)) + self.box.log_jacobian(Z)
+        return self._box_posterior(Z)
+
+    def _box_posterior(self, X):
         inside = np.all((X >= self.bounds[:, 0]) & (X <= self.bounds[:, 1]), axis=-1)
         out = np.full(X.shape[0], -np.inf)
         if inside.any():
@@ -109,6 +136,36 @@ class LogPosterior:
                 )
             out[inside] = np.where(np.isfinite(ll), ll, -np.inf)
         return out
+
+
+class BoxCoordinates:
+    """Logit coordinates of the prior box: ``z = log((x - lo) / (hi - x))`` per parameter.
+
+    A parameter the data leave undetermined fills its box with a flat posterior, and one
+    the data push against a bound piles up at it; a random walk or a t proposal in ``x``
+    then puts many draws outside the box (rejected: acceptance of a few per cent). In
+    ``z`` the box is the whole line, the flat posterior becomes a logistic density and the
+    pile-up at a bound an exponential tail, both of which Gaussian proposals sample well.
+    The density in ``z`` is that in ``x`` times ``dx/dz = (hi - lo) s(z) s(-z)``
+    (``s`` the logistic function), so the posterior of ``x`` is unchanged.
+    """
+
+    def __init__(self, bounds):
+        bounds = np.asarray(bounds, float)
+        self.lo = bounds[:, 0]
+        self.width = bounds[:, 1] - bounds[:, 0]
+        self._log_width = float(np.sum(np.log(self.width)))
+
+    def to_box(self, z):
+        return self.lo + self.width * expit(z)
+
+    def from_box(self, x):
+        return logit(np.clip((np.asarray(x, float) - self.lo) / self.width, 1e-12, 1 - 1e-12))
+
+    def log_jacobian(self, z):
+        """``log |dx/dz|`` summed over the last axis."""
+        z = np.asarray(z, float)
+        return self._log_width + np.sum(log_expit(z) + log_expit(-z), axis=-1)
 
 
 def _initial_ball(problem, lsq: FitResult, n_walkers, rng, bounds):
@@ -296,19 +353,24 @@ def _burn(tau, n_steps):
     return min(int(np.ceil(3 * _tau_range(tau, n_steps)[1])), n_steps // 2)
 
 
-def _run_until_converged(sampler, state, n_steps, max_steps, check_every, names, progress):
+def _run_until_converged(
+    sampler, state, n_steps, max_steps, check_every, names, progress, to_internal=None
+):
     """Run ``n_steps``, then blocks of ``check_every`` until :func:`is_converged` or ``max_steps``.
 
     Stops early, too, once the chain cannot converge within ``max_steps``: when 50 times its
     autocorrelation time so far already exceeds ``max_steps`` (the estimate from a short
     chain is low, if anything, so this gives up only on chains that are surely too slow).
     Returns ``(tau, given_up)``: ``given_up`` is that projected length, else None.
+    ``to_internal`` maps the sampler's coordinates to the reported ones (the diagnostics
+    are those of the reported parameters).
     """
+    to_internal = to_internal or (lambda z: z)
     # (fewer independent chains than dimensions are not "linearly independent walkers", the
     # check emcee makes for its ensemble moves)
     state = sampler.run_mcmc(state, n_steps, progress=progress, skip_initial_state_check=True)
     while True:
-        chain = sampler.get_chain()
+        chain = to_internal(sampler.get_chain())
         tau = autocorr_time(chain)
         n = sampler.iteration
         if n >= max_steps:
@@ -338,6 +400,7 @@ def fit_mcmc(
     pilot_steps: int | None = None,
     n_chains: int = 8,
     max_pilot_rounds: int = 6,
+    logit: bool = True,
 ) -> PosteriorResult:
     """Sample the posterior of ``problem`` starting from the least-squares result ``lsq``.
 
@@ -351,13 +414,15 @@ def fit_mcmc(
     ``check_every`` until the chain is converged (:func:`is_converged`) or ``max_steps``
     (default ``n_steps``: no extension) is reached, or until 50 of its autocorrelation
     times exceed ``max_steps`` (it cannot converge there). The stopping rule only reads the
-    chain, so a seed still fixes the result.
+    chain, so a seed still fixes the result. ``logit`` (default) moves the walkers in the
+    logit coordinates of the prior box (module docstring); False, in the internal
+    coordinates themselves.
     """
     rng = np.random.default_rng(seed)
     # walkers stay near the optimum: its currents start the solver (on a copy: the caller's
     # problem, shared with the least-squares result, keeps its cold predictions)
     problem = problem.warm_started(lsq.internal)
-    logpost = LogPosterior(problem)
+    logpost = LogPosterior(problem, logit=logit)
     P = problem.ndim
     ndim = P + 2
     names = problem.names + ["sigma_magnitude", "sigma_phase_deg"]
@@ -366,7 +431,7 @@ def fit_mcmc(
     n_walkers += n_walkers % 2
     pilot_steps = min(300, n_steps) if pilot_steps is None else int(pilot_steps)
     p0 = _initial_ball(problem, lsq, n_walkers, rng, logpost.bounds)
-    start, random_state = p0, np.random.RandomState(seed).get_state()
+    start, random_state = logpost.to_sampler(p0), np.random.RandomState(seed).get_state()
     pilot, pilot_rounds = None, []
     if pilot_steps > 0:
         # differential evolution from the ball, then rounds of the moves adapted to the
@@ -409,15 +474,16 @@ def fit_mcmc(
     sampler.random_state = random_state
     n_walkers = len(start)
     max_steps = max(n_steps, max_steps or n_steps)
+    # (diagnostics of the internal parameters, not of the sampler's logit coordinates)
     tau, given_up = _run_until_converged(
-        sampler, start, n_steps, max_steps, check_every, names, progress
+        sampler, start, n_steps, max_steps, check_every, names, progress, logpost.to_internal
     )
     n_steps = sampler.iteration
 
     tau_min, tau_max = _tau_range(tau, n_steps)
     burn = _burn(tau, n_steps)
     thin = max(1, int(np.floor(tau_min / 2)))
-    post_burn = sampler.get_chain(discard=burn)  # (draws, walkers, ndim)
+    post_burn = logpost.to_internal(sampler.get_chain(discard=burn))  # (draws, walkers, ndim)
     samples = post_burn[::thin]
 
     flat = samples.reshape(-1, ndim)
@@ -474,6 +540,8 @@ def fit_mcmc(
     # Point estimate: the draw of highest posterior (MAP). The per-parameter median can
     # combine different modes of a multimodal posterior into a point that fits none.
     log_prob = sampler.get_log_prob(discard=burn)
+    if logpost.box is not None:  # the posterior density of the internal vector, not of z
+        log_prob = log_prob - logpost.box.log_jacobian(sampler.get_chain(discard=burn))
     best_draw = post_burn.reshape(-1, ndim)[int(np.argmax(log_prob.reshape(-1)))]
     median_internal = np.median(flat[:, :P], axis=0)
     point = best_draw[:P]
@@ -525,6 +593,7 @@ def fit_mcmc(
             if pilot_steps > 0
             else "DE 0.8 + DE snooker 0.2 (no pilot)"
         ),
+        "coordinates": "logit of the prior box" if logit else "internal",
         "point_estimate": "highest-posterior draw (MAP)",
         "noise_priors": "log-uniform: sigma_magnitude 0.001..1, sigma_phase 0.1..50 deg",
         "fixed": dict(problem.fixed),

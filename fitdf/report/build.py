@@ -162,7 +162,7 @@ class ReportSettings:
     n_starts: int = 6
     mcmc_top: int | None = 3
     n_steps: int = 300
-    max_steps: int = 3000
+    max_steps: int = 4000
     n_walkers: int | None = None
     mcmc_skip: tuple = ("jiles_atherton",)
     cv_top: int | None = 2
