@@ -253,9 +253,15 @@ def test_estimate_thesis_scales_recovers_known_scales():
     assert est["rms_phase_deg"] < 1e-5
 
 
-def test_fitted_core_in_the_thesis_loop():
+@pytest.fixture(scope="module")
+def b1_fit():
+    """A small fit to Table B.1 (exact voltage chain)."""
+    return fit("B.1", "proportional_width", seed=0, n_starts=2)
+
+
+def test_fitted_core_in_the_thesis_loop(b1_fit):
     """A small fit to Table B.1: cycles lie in the second quadrant (phase lead, Graph 5.21) and balance."""
-    res = fit("B.1", "proportional_width", seed=0, n_starts=2)
+    res = b1_fit
     r = limit_cycles(
         THESIS_PLANT,
         res,
@@ -266,7 +272,7 @@ def test_fitted_core_in_the_thesis_loop():
     )
     assert r.intersections, f"no cycle with the fitted values {res.values}"
     for c in r.intersections:
-        assert abs(1 + c.G * c.N) < 1e-8
+        assert abs(1 + c.G * c.N) < 2e-6  # ROOT_TOL: the floor of the exact chain's DF
         assert c.G.real < 0 < c.G.imag  # second quadrant
         assert np.angle(c.N) > 0  # the core's voltage transfer leads
     text = format_limit_cycle_table(
@@ -280,6 +286,48 @@ def test_fitted_core_in_the_thesis_loop():
         }
     )
     assert "die out below gain" in text
+
+
+def test_fitted_core_cycles_at_every_gain_match_a_scan_of_the_balance_curve(b1_fit):
+    """An independent path: scan ``arg(-G0 N) = 0`` over a fine grid of amplitudes and
+    frequencies (no least squares, no candidate cells); along that curve the gain of a
+    cycle is ``K(A) = 1 / |G0 N|``, so the cycles of a gain are where ``K(A)`` crosses it.
+    The solver must find each of them. (With finite differences over 1e-9 in its
+    refinement it missed the cycles of B.1's fits at some gains: the exact chain's DF
+    jitters on that scale.)"""
+    from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
+    from fitdf.loop.plant import as_loop_plant
+
+    lp = as_loop_plant(THESIS_PLANT, 2.5)
+    N, _, _ = as_describing_function(b1_fit, 0.0)
+    A = np.geomspace(0.5, 3.0, 90)  # (below ~0.45 the loop is closed: N constant, K flat)
+    w = np.geomspace(5.0, 30.0, 1200)
+    G0 = lp.response(w, [1.0])[0]
+    phase = np.angle(-G0[None, :] * _evaluate_N(N, A[:, None], w[None, :]))
+    curve = []
+    for i in range(A.size):  # the curve is single-valued in A here: one crossing per row
+        j = np.flatnonzero(np.diff(np.sign(phase[i])) != 0)
+        j = j[np.abs(phase[i, j] - phase[i, j + 1]) < 1.0]  # not the wrap at +-pi
+        assert j.size == 1
+        j = j[0]
+        t = phase[i, j] / (phase[i, j] - phase[i, j + 1])
+        wc = w[j] * (w[j + 1] / w[j]) ** t
+        curve.append(1.0 / abs(lp.response([wc], [1.0])[0, 0] * N(A[i], wc)))
+    K = np.array(curve)
+    assert np.all(np.diff(K) > 0)  # one cycle per gain in this box
+    gains = np.array([40.0, 55.55095776698429, 75.0, 101.0, 150.0])
+    expected = np.exp(np.interp(gains, K, np.log(A)))
+    r = limit_cycles(
+        THESIS_PLANT,
+        b1_fit,
+        gains=gains,
+        source_impedance=0.0,
+        time_scale=2.5,
+        amplitude_range=(0.02, 10),
+    )
+    for g, a in zip(gains, expected):
+        found = [c.amplitude for c in r.intersections if c.gain == g]
+        assert found == [pytest.approx(a, rel=0.01)], (g, a, found)
 
 
 def test_fitted_limit_cycles_are_json_ready(tmp_path):

@@ -62,10 +62,21 @@ __all__ = [
     "as_describing_function",
 ]
 
-#: Accept a refined root when ``|ln|GN|| + |arg(-GN)|`` is below this.
-ROOT_TOL = 1e-9
+#: Accept a refined root when ``|ln|GN|| + |arg(-GN)|`` is below this: the floor of a
+#: fitted core's DF, whose exact circuit jitters by ~1e-8..1e-6 between points a hair
+#: apart (a root of B.1 proportional_width in the thesis plant at gain 55.55 stops at
+#: 1.4e-8; 1e-9 rejected it). A callable's roots converge to ~1e-15.
+ROOT_TOL = 1e-6
 #: Two roots closer than this in ``ln A`` and ``ln omega`` are one.
 DEDUP_TOL = 1e-6
+#: Step of the refinement's finite differences in ``ln A`` and ``ln omega``. A fitted
+#: core's DF comes from the exact circuit, whose discretisation moves it by ~1e-6 between
+#: points a hair apart: differences over 1e-9 measured that, not the slope, and the
+#: refinement stalled short of roots that exist (B.1 constant_width in the plant
+#: ``K/((1+s)(1+0.25s)(1+1.1s))``: cycles at gains 45 and 150, none found at 60-120).
+#: 1e-4 is far above that and far below the scale on which ``F`` bends; the roots still
+#: converge to ~1e-15 (the Jacobian only steers, the residual is exact).
+REFINE_DIFF_STEP = 1e-4
 
 
 # ---------------------------------------------------------------- the solver
@@ -136,7 +147,7 @@ def _refine(plant, N, gain, u0, v0, bounds):
         ftol=1e-15,
         gtol=1e-15,
         x_scale=1.0,
-        diff_step=1e-9,
+        diff_step=REFINE_DIFF_STEP,
         max_nfev=400,
     )
     return sol.x, float(np.sum(np.abs(sol.fun)))
