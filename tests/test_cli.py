@@ -79,13 +79,18 @@ def test_models_lists_every_model_with_equations():
     assert {m["name"] for m in j["models"]} >= {"rayleigh", "cubic_hc"}
 
 
+#: The fits in the CLI's own process (--workers 1; the same numbers, test_executor.py): a
+#: pool's start-up costs more than these small fits. The CLI's default pool of workers runs
+#: the fits of test_json_schemas.py (one dataset, and a batch) and test_interrupt.py.
+ONE_PROCESS = ("--workers", "1")
+
+
 def test_fit_prints_ranking_and_json():
-    p = run("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", "--quiet")
+    fit_b3 = ("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", *ONE_PROCESS)
+    p = run(*fit_b3, "--quiet")
     assert p.returncode == 0, p.stderr
     assert "Ranking on B.3" in p.stdout and "Best model" in p.stdout
-    j = json.loads(
-        run("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", "--json").stdout
-    )
+    j = json.loads(run(*fit_b3, "--json").stdout)
     assert [r["rank"] for r in j["ranking"]] == [1, 2]
     assert {f["model"] for f in j["fits"]} == {"constant_width", "rayleigh"}
     for f in j["fits"]:
@@ -134,7 +139,7 @@ def test_user_csv_fits(tmp_path):
         ):
             rows.append(f"{v},{f},{d},{ph},600")
     good.write_text("\n".join(rows) + "\n")
-    p = run("fit", str(good), "--models", "constant_width", "--no-cv", "--quiet")
+    p = run("fit", str(good), "--models", "constant_width", "--no-cv", "--quiet", *ONE_PROCESS)
     assert p.returncode == 0, p.stderr
     assert "mycore.csv" in p.stdout
 
@@ -209,7 +214,16 @@ def _write_cores(folder, n=2):
     return paths
 
 
-FAST_FIT = ("--method", "lsq", "--chain", "winding", "--models", "constant_width", "--no-cv")
+FAST_FIT = (
+    "--method",
+    "lsq",
+    "--chain",
+    "winding",
+    "--models",
+    "constant_width",
+    "--no-cv",
+    *ONE_PROCESS,
+)
 
 
 def test_fit_batch_ranks_each_file_then_summarises(tmp_path):

@@ -1,7 +1,7 @@
 """The JSON that scripts read checks against the schemas in ``schemas/``.
 
 Every ``--json`` output of the command line (run as a user runs it: a subprocess of the
-installed package) and the report's ``results.json`` (a tiny report built here) must
+installed package) and the report's ``results.json`` (the tiny report of conftest.py) must
 validate against its JSON Schema (draft 2020-12). The schemas themselves must be valid,
 self-contained (every ``$ref`` resolves), document every top-level key, and not be
 vacuous: dropping a required key, or giving a new optional key the wrong shape, fails.
@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from jsonschema import Draft202012Validator
 
-from fitdf.report.build import ReportSettings, generate_report
+import fitdf.report.sections as sections
 
 REPO = Path(__file__).resolve().parents[1]
 SCHEMAS = REPO / "schemas"
@@ -35,7 +35,10 @@ USER_CSV = "input_v,frequency_hz,df_reported,phase_lead_deg,source_impedance_ohm
 )
 
 #: (case id, schema file, command line after ``fitdf``); ``{csv}`` is the user CSV above,
-#: ``{dir}`` the folder holding it (and nothing else).
+#: ``{dir}`` the folder holding it (and nothing else). The fits run on the CLI's default pool
+#: of workers (the least squares and the MCMC, and one pool for a batch), except the plain
+#: least-squares fit of B.1: in the CLI's own process (``--workers 1``, the same output
+#: without a pool's start-up of seconds).
 COMMANDS = [
     ("datasets", "fitdf-datasets.schema.json", ["datasets", "--json"]),
     ("audit-B.1", "fitdf-audit.schema.json", ["audit", "B.1", "--json"]),
@@ -44,7 +47,7 @@ COMMANDS = [
     (
         "fit-B.1",
         "fitdf-fit.schema.json",
-        ["fit", "B.1", "--models", "constant_width", "--no-cv", "--json"],
+        ["fit", "B.1", "--models", "constant_width", "--no-cv", "--json", "--workers", "1"],
     ),
     (
         "fit-csv-mcmc",
@@ -95,22 +98,6 @@ COMMANDS = [
         ],
     ),
 ]
-
-#: The smallest report that still has an MCMC fit and a cross-validation (no limit cycles).
-SMALL = ReportSettings(
-    models=("constant_width",),
-    blocks=("B.1",),
-    n_starts=1,
-    mcmc_top=1,
-    n_steps=60,
-    max_steps=60,
-    n_walkers=16,
-    cv_top=1,
-    cv_starts=1,
-    cross=(),
-    limit_cycles=False,
-    workers=1,
-)
 
 
 def load_schema(name: str) -> dict:
@@ -305,34 +292,44 @@ def test_fit_schema_checks_the_new_keys_when_present(cli_outputs):
 
 # ------------------------------------------------------------------ the report's results.json
 @pytest.fixture(scope="module")
-def small_results(tmp_path_factory) -> dict:
-    out = tmp_path_factory.mktemp("report") / "report"
-    generate_report(out, seed=0, progress=False, settings=SMALL)
-    return json.loads((out / "results.json").read_text(encoding="utf-8"))
+def report_results(tiny_report) -> dict:
+    """results.json of the tiny report (conftest.py): least squares, MCMC, cross-validation,
+    a joint block, a cross-impedance prediction and the limit-cycle comparison."""
+    return json.loads((tiny_report / "results.json").read_text(encoding="utf-8"))
 
 
-def test_results_json_matches_schema(small_results):
-    assert errors("results.schema.json", small_results) == []
-    block = small_results["blocks"]["B.1"]
+@pytest.fixture(scope="module")
+def switched_off(report_results) -> dict:
+    """The same results with the limit-cycle section a run with ``limit_cycles=False`` writes
+    (fitdf.report.build takes it from ``sections.limit_cycles_switched_off``)."""
+    return {**report_results, "limit_cycles": sections.limit_cycles_switched_off()}
+
+
+def test_results_json_matches_schema(report_results, switched_off):
+    assert errors("results.schema.json", report_results) == []
+    block = report_results["blocks"]["B.1"]
     assert block["fits_mcmc"] and block["cv"]  # the MCMC and CV parts were exercised
-    assert small_results["limit_cycles"]["available"] is False
+    assert report_results["limit_cycles"]["rows"]  # and the limit-cycle comparison
+    assert errors("results.schema.json", switched_off) == []
+    assert switched_off["limit_cycles"]["available"] is False
 
 
-def test_results_schema_is_not_vacuous(small_results):
-    r = small_results
-    for path in (
-        ("blocks", "B.1", "ranking_lsq", 0, "aicc"),
-        ("blocks", "B.1", "order_lsq"),
-        ("blocks", "B.1", "fits_lsq", "constant_width", "parameters"),
-        ("blocks", "B.1", "fits_mcmc", "constant_width", "diagnostics"),
-        ("limit_cycles", "reason"),
-        ("settings", "models"),
-        ("findings",),
-        ("timing", "total_s"),
+def test_results_schema_is_not_vacuous(report_results, switched_off):
+    r = report_results
+    model = r["settings"]["models"][0]
+    for results, path in (
+        (r, ("blocks", "B.1", "ranking_lsq", 0, "aicc")),
+        (r, ("blocks", "B.1", "order_lsq")),
+        (r, ("blocks", "B.1", "fits_lsq", model, "parameters")),
+        (r, ("blocks", "B.1", "fits_mcmc", model, "diagnostics")),
+        (switched_off, ("limit_cycles", "reason")),
+        (r, ("settings", "models")),
+        (r, ("findings",)),
+        (r, ("timing", "total_s")),
     ):
-        assert errors("results.schema.json", _drop(r, path)), path
-    fit = r["blocks"]["B.1"]["fits_lsq"]["constant_width"]
-    with_new = {**fit, "material": {"model": "constant_width", "coercive_force_oe": 0.1}}
+        assert errors("results.schema.json", _drop(results, path)), path
+    fit = r["blocks"]["B.1"]["fits_lsq"][model]
+    with_new = {**fit, "material": {"model": model, "coercive_force_oe": 0.1}}
     with_new["appendix_a_check"] = [
         {
             "quantity": "coercive_force_Hc",
@@ -344,28 +341,28 @@ def test_results_schema_is_not_vacuous(small_results):
         }
     ]
     good = copy.deepcopy(r)
-    good["blocks"]["B.1"]["fits_lsq"]["constant_width"] = with_new
+    good["blocks"]["B.1"]["fits_lsq"][model] = with_new
     assert errors("results.schema.json", good) == []
     bad = copy.deepcopy(good)
-    del bad["blocks"]["B.1"]["fits_lsq"]["constant_width"]["appendix_a_check"][0]["unit"]
+    del bad["blocks"]["B.1"]["fits_lsq"][model]["appendix_a_check"][0]["unit"]
     assert errors("results.schema.json", bad)
 
 
-def test_committed_results_json_matches_schema_if_current(small_results):
+def test_committed_results_json_matches_schema_if_current(report_results):
     if not COMMITTED.exists():
         pytest.skip("no committed reports/results.json")
     committed = json.loads(COMMITTED.read_text(encoding="utf-8"))
-    if set(committed) != set(small_results):
+    if set(committed) != set(report_results):
         pytest.skip(
             "reports/results.json predates the current structure "
-            f"(top-level keys {sorted(set(committed) ^ set(small_results))} differ); regenerate it"
+            f"(top-level keys {sorted(set(committed) ^ set(report_results))} differ); regenerate it"
         )
     assert errors("results.schema.json", committed) == []
 
 
-def test_switched_on_limit_cycle_section_shapes(small_results):
+def test_switched_on_limit_cycle_section_shapes(report_results):
     """The three shapes of the limit-cycle section: switched off, failed, done."""
-    base = copy.deepcopy(small_results)
+    base = copy.deepcopy(report_results)
     failed = {"available": True, "error": "RuntimeError: x", "models_offered": ["constant_width"]}
     done = {
         "available": True,

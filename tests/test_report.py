@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tiny_settings import TINY
 
 import fitdf.report.outline as outline
 import fitdf.report.render as render
@@ -18,21 +19,6 @@ from fitdf.report.build import BLOCKS, ReportSettings, generate_report
 REPO = Path(__file__).resolve().parents[1]
 COMMITTED = REPO / "reports" / "results.json"
 
-#: A report small enough for unit tests; every section is still produced.
-TINY = ReportSettings(
-    models=("proportional_width",),
-    blocks=("B.1", "permalloy-joint"),
-    n_starts=2,
-    mcmc_top=1,
-    n_steps=60,
-    max_steps=60,
-    n_walkers=16,
-    cv_top=1,
-    cv_starts=1,
-    cross_top=1,
-    cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),),
-    workers=1,
-)
 #: Smaller still: fits of one block, no MCMC (atomic-write tests).
 MINI = ReportSettings(
     models=("proportional_width",),
@@ -76,13 +62,7 @@ def _strip_timing(results: dict) -> dict:
     return {k: v for k, v in results.items() if k != "timing"}
 
 
-@pytest.fixture(scope="module")
-def tiny_report(tmp_path_factory):
-    out = tmp_path_factory.mktemp("rep") / "report"
-    generate_report(out, seed=0, progress=False, settings=TINY)  # every section, the real modules
-    return out
-
-
+# ``tiny_report``: the report of TINY (conftest.py): every section, the real modules.
 @pytest.fixture(scope="module")
 def tiny_results(tiny_report):
     return json.loads((tiny_report / "results.json").read_text())
@@ -310,13 +290,15 @@ def test_interrupted_swap_restores_the_old_report(tmp_path, monkeypatch):
 
 
 def test_same_seed_same_numbers(tmp_path, stub_figures):
+    # every random stage (the starts, the pilot rounds and chain, the CV folds), short:
+    # the same seed must give the same numbers whatever the length of the chain
     settings = ReportSettings(
         models=("proportional_width",),
         blocks=("B.1",),
         n_starts=2,
         mcmc_top=1,
-        n_steps=50,
-        max_steps=50,
+        n_steps=20,
+        max_steps=20,
         n_walkers=16,
         cv_top=1,
         cv_starts=1,

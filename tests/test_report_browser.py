@@ -1,7 +1,7 @@
 """The HTML report, opened as a reader would: headless Chromium renders an index.html
-that the test itself has just generated (a tiny report: one block, one model, a short
-MCMC chain and the limit-cycle comparison), so what is checked is the current code's
-output, not a committed file.
+that the tests have just generated (the tiny report of conftest.py: two blocks, one
+model, a short MCMC chain, a cross-impedance prediction, the limit-cycle comparison and
+the thesis graphs), so what is checked is the current code's output, not a committed file.
 
 Checks what can be checked from outside the browser: the DOM Chromium builds holds the
 ranking tables and every figure of results.json as a ``data:`` PNG (each decodes as a
@@ -26,8 +26,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from fitdf.report.build import ReportSettings, generate_report
 
 pytestmark = pytest.mark.browser
 
@@ -58,32 +56,15 @@ needs = pytest.mark.skipif(
     CHROMIUM is None, reason="headless Chromium not installed (apt-get install chromium)"
 )
 
-#: A report small enough for a test that still has every kind of figure: fit, loci,
-#: residuals and corner (a short MCMC chain) of one block, the limit-cycle comparison
-#: (Tables 5.1/5.2) and the thesis graphs.
-TINY_HTML = ReportSettings(
-    models=("proportional_width",),
-    blocks=("B.1",),
-    n_starts=1,
-    mcmc_top=1,
-    n_steps=60,
-    max_steps=60,
-    n_walkers=16,
-    cv_top=0,
-    cross=(),
-    limit_cycles=True,
-    workers=1,
-)
-
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory) -> Path:
-    """index.html of a freshly generated tiny report (built only when Chromium is there)."""
+def report(request) -> Path:
+    """index.html of the freshly generated tiny report (asked for only when Chromium is there;
+    it has every kind of figure: fit, loci, residuals and corner of a block, cross-impedance,
+    limit cycles, the thesis graphs)."""
     if CHROMIUM is None:
         pytest.skip("headless Chromium not installed (apt-get install chromium)")
-    out = tmp_path_factory.mktemp("browser") / "report"
-    generate_report(out, seed=0, progress=False, settings=TINY_HTML)
-    return out / "index.html"
+    return request.getfixturevalue("tiny_report") / "index.html"
 
 
 def _figure_paths(results: dict) -> list[str]:

@@ -1,0 +1,25 @@
+"""The settings of the tiny report that test_report.py, test_report_browser.py and
+test_json_schemas.py read (built once per run: the ``tiny_report`` fixture, conftest.py)."""
+
+from __future__ import annotations
+
+from fitdf.report.build import ReportSettings
+
+#: A report small enough for unit tests; every section and every kind of figure is still
+#: produced: two blocks (one of them joint over two source impedances), least squares, a
+#: short MCMC chain (corner figures), cross-validation, a cross-impedance prediction, the
+#: limit-cycle comparison (Tables 5.1/5.2) and the thesis graphs.
+TINY = ReportSettings(
+    models=("proportional_width",),
+    blocks=("B.1", "permalloy-joint"),
+    n_starts=2,
+    mcmc_top=1,
+    n_steps=30,  # short chains: the tests read what the report holds, not the posterior
+    max_steps=30,
+    n_walkers=16,
+    cv_top=1,
+    cv_starts=1,
+    cross_top=1,
+    cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),),
+    workers=1,
+)
