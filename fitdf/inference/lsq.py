@@ -97,7 +97,10 @@ def _polish(problem: FitProblem, start, max_nfev: int, known=()):
     def near(x, k_x, k_cov):
         if k_cov is not None:
             d = x - k_x
-            return float(d @ np.linalg.solve(k_cov, d)) <= MERGE_SIGMAS**2
+            try:
+                return float(d @ np.linalg.solve(k_cov, d)) <= MERGE_SIGMAS**2
+            except np.linalg.LinAlgError:  # numerically singular: the box's width instead
+                pass
         return np.max(np.abs(x - k_x) / width) <= 0.01
 
     merged = []
