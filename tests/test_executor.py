@@ -10,11 +10,12 @@ from dataclasses import replace
 
 import pandas as pd
 import pytest
+from tiny_settings import TINY
 
 import fitdf.report.executor as executor
 from fitdf import cli
 from fitdf.errors import OptionError
-from fitdf.report.build import ReportSettings, generate_report
+from fitdf.report.build import generate_report
 from fitdf.report.executor import Executor, RemoteTraceback
 
 distributed = pytest.importorskip("distributed")
@@ -29,23 +30,17 @@ JOBS = {
 }
 EXPECTED = {("slow",): None, ("pow", 2): 1024, ("add",): "ab", ("pow", 3): 27}
 
-#: A report small enough to run twice in a test; every kind of job (fits, MCMC, CV,
-#: cross-impedance, figures) still runs.
-SMALL = ReportSettings(
-    models=("proportional_width",),
+#: A report small enough to run twice in a test: the tiny report of the other report tests
+#: on one block, one start and no limit cycles or `winding` refits; every kind of job
+#: (fits, MCMC, CV, cross-impedance, figures) still runs.
+SMALL = replace(
+    TINY,
     blocks=("B.1",),
     n_starts=1,
-    mcmc_top=1,
     n_steps=50,
     max_steps=50,
-    n_walkers=16,
-    cv_top=1,
-    cv_starts=1,
-    cross_top=1,
-    cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),),
     limit_cycles=False,
     approximate_chain=None,
-    workers=1,
 )
 
 
