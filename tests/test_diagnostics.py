@@ -379,3 +379,29 @@ def test_a_chain_too_slow_for_max_steps_is_given_up_early():
     tau, given_up = mcmc._run_until_converged(fast, None, 300, 2000, 100, ["x"], False)
     assert given_up is None and fast.iteration < 2000
     assert fast.iteration / tau[0] >= MIN_STEPS_OVER_TAU
+
+
+def _converged(sampler, tau):
+    n = sampler.iteration
+    d = mcmc.chain_diagnostics(sampler.get_chain()[mcmc._burn(tau, n) :], ["x"])
+    return mcmc.is_converged(n / tau[0], d["rhat"], d["ess_bulk"])
+
+
+def test_a_well_mixing_chain_short_of_draws_is_extended_past_max_steps():
+    """50 autocorrelation times met at ``max_steps`` but R-hat or ESS short: the chain goes on
+    up to ``extend_to`` until converged. A chain too slow for ``max_steps`` is not extended."""
+    short = _AR1Sampler(phi=0.9, seed=0)  # tau ~ 19
+    tau, given_up = mcmc._run_until_converged(short, None, 300, 800, 100, ["x"], False)
+    assert given_up is None and short.iteration == 800
+    assert short.iteration / tau[0] >= MIN_STEPS_OVER_TAU and not _converged(short, tau)
+    extended = _AR1Sampler(phi=0.9, seed=0)  # the same draws, then more
+    tau, given_up = mcmc._run_until_converged(
+        extended, None, 300, 800, 100, ["x"], False, extend_to=3000
+    )
+    assert given_up is None and 800 < extended.iteration < 3000 and _converged(extended, tau)
+    np.testing.assert_array_equal(extended.get_chain()[:800], short.get_chain())
+    slow = _AR1Sampler(phi=0.98)  # tau ~ 99: given up before max_steps, not extended
+    tau, given_up = mcmc._run_until_converged(
+        slow, None, 300, 2000, 100, ["x"], False, extend_to=6000
+    )
+    assert given_up > 2000 and slow.iteration < 2000

@@ -1,5 +1,7 @@
 """Least-squares fitting: parameter recovery from synthetic data, determinism, row policy, errors."""
 
+import copy
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -212,3 +214,89 @@ def test_a_start_that_reaches_a_known_basin_stops_there(monkeypatch):
             assert any(c - 1e-9 <= costs[i] <= c + window for c in earlier)
     assert merged.info["nfev_total"] < full.info["nfev_total"]
     assert merged.values == pytest.approx(full.values, rel=1e-3)
+
+
+def _interior_and_edges(problem):
+    """An interior point with one coordinate on its upper bound and one on its lower bound."""
+    lo, hi = problem.internal_bounds().T
+    x = lo + 0.37 * (hi - lo)
+    x[0], x[-1] = hi[0], lo[-1]
+    return x, lo, hi
+
+
+def test_polish_jacobian_is_scipys_forward_difference_in_one_batch():
+    """The polish's batched Jacobian evaluates the points scipy's ``least_squares(diff_step=
+    ...)`` would (steps ``DIFF_STEP |x|``, backward at a bound), so the polish follows
+    scipy's path; and its columns are the slopes (against central differences over a 10x
+    larger step, one point at a time)."""
+    from scipy.optimize._numdiff import approx_derivative  # scipy's own 2-point scheme
+
+    from fitdf.inference import lsq
+
+    problem = FitProblem(resolve_data("B.3"), "constant_width", "winding")
+    x, lo, hi = _interior_and_edges(problem)
+    x[1] = 0.3 if lo[1] < 0.3 < hi[1] else x[1]  # |x| < 1: a step relative to |x| itself
+    seen = []
+
+    def recorded(v):
+        seen.append(np.atleast_2d(v).copy())
+        return problem.objective_residuals(v)
+
+    spy = copy.copy(problem)
+    spy.objective_residuals = recorded
+    jac, n = lsq._batched_jacobian(spy, x, None, lo, hi)
+    assert n == problem.ndim + 1 and len(seen) == 1  # one batched call
+    ours = seen.pop()
+    ref = approx_derivative(recorded, x, method="2-point", rel_step=lsq.DIFF_STEP, bounds=(lo, hi))
+    theirs = np.vstack(seen)
+    np.testing.assert_array_equal(ours[1:], theirs[-problem.ndim :])  # the very same points
+    np.testing.assert_allclose(jac, ref, rtol=1e-6, atol=1e-6)  # (batched vs one by one: ~1e-11)
+    # given the residuals at x, only the P shifted points are evaluated: the same Jacobian
+    again, n_again = lsq._batched_jacobian(problem, x, problem.objective_residuals(x), lo, hi)
+    assert n_again == problem.ndim
+    np.testing.assert_allclose(again, jac, rtol=1e-6, atol=1e-6)
+    # slopes: central differences at an interior point (the box edges are one-sided)
+    y = lo + 0.41 * (hi - lo)
+    jac_y, _ = lsq._batched_jacobian(problem, y, None, lo, hi)
+    for i in range(problem.ndim):
+        h = 1e-3 * abs(y[i])
+        up, down = y.copy(), y.copy()
+        up[i] += h
+        down[i] -= h
+        central = (problem.objective_residuals(up) - problem.objective_residuals(down)) / (2 * h)
+        np.testing.assert_allclose(
+            jac_y[:, i], central, rtol=2e-3, atol=2e-3 * np.abs(central).max()
+        )
+
+
+def test_polish_reaches_scipys_optimum_and_keeps_its_budget():
+    """Against lmfit + scipy's own finite differences from the same start: the same optimum.
+    ``max_nfev`` counts the Jacobian's points too: a small budget stops the polish (at most
+    one Jacobian past it) with a message saying so."""
+    import lmfit
+
+    from fitdf.inference import lsq
+
+    problem = FitProblem(resolve_data("B.1"), "constant_width", "winding")
+    lo, hi = problem.internal_bounds().T
+    start = lo + 0.45 * (hi - lo)
+    params = lmfit.Parameters()
+    for i, v in enumerate(start):
+        params.add(f"p{i}", value=v, min=lo[i], max=hi[i])
+
+    def residual(p):
+        return problem.objective_residuals(np.array([p[f"p{i}"].value for i in range(len(start))]))
+
+    ref = lmfit.minimize(
+        residual, params, method="least_squares", diff_step=lsq.DIFF_STEP, max_nfev=4000
+    )
+    out, x, cost = lsq._polish(problem, start, max_nfev=4000)
+    assert cost == pytest.approx(float(np.sum(ref.residual**2)), rel=1e-8)
+    np.testing.assert_allclose(x, [ref.params[f"p{i}"].value for i in range(len(x))], atol=1e-5)
+    # the count: every trial point and every Jacobian point
+    assert out.nfev == pytest.approx(ref.nfev, rel=0.05)
+
+    short, _, short_cost = lsq._polish(problem, start, max_nfev=20)
+    assert 20 <= short.nfev <= 20 + problem.ndim + 1
+    assert not short.success and "model evaluations" in short.message
+    assert short_cost > cost

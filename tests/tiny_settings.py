@@ -16,6 +16,7 @@ TINY = ReportSettings(
     mcmc_top=1,
     n_steps=30,  # short chains: the tests read what the report holds, not the posterior
     max_steps=30,
+    extend_steps=None,
     n_walkers=16,
     cv_top=1,
     cv_starts=1,

@@ -31,11 +31,12 @@ from fitdf.inference.results import FitResult, residual_table
 __all__ = ["fit_lsq"]
 
 _Z95 = 1.959963984540054
-#: Relative finite-difference step of the Jacobian (scipy's ``diff_step``). The exact
+_SQRT_EPS = float(np.sqrt(np.finfo(float).eps))  # scipy's fallback relative step (2-point)
+#: Relative finite-difference step of the polish's Jacobian (:func:`_batched_jacobian`;
+#: scipy's ``rel_step`` rule: ``DIFF_STEP |x|`` in the internal coordinate). The exact
 #: chain is a discretised steady state: its DF moves in steps of ~1e-6 as table nodes
-#: shift with the parameters, so differences over the default ~1e-8 step measure that
-#: jitter, not the slope. 1e-4 (in log10 units for log parameters) is far above it and
-#: far below any curvature that matters.
+#: shift with the parameters, so differences over scipy's default ~1e-8 step measure that
+#: jitter, not the slope; 1e-4 is far above it and far below any curvature that matters.
 DIFF_STEP = 1e-4
 
 
@@ -77,9 +78,11 @@ MERGE_SIGMAS = 3.0
 def _polish(problem: FitProblem, start, max_nfev: int, known=()):
     """One trust-region least-squares run from ``start``: ``(out, x, chi2)``.
 
-    ``known`` holds ``(x, chi2, covariance or None)`` of optima found by earlier starts:
-    the run stops as soon as it is within :data:`MERGE_CHI2` and :data:`MERGE_SIGMAS` of
-    one of them (``out.merged`` is then True)."""
+    The Jacobian is :func:`_batched_jacobian` (the ``P`` shifted vectors in one batched
+    call); ``max_nfev`` counts every model evaluation, the Jacobian's included
+    (``out.nfev``). ``known`` holds ``(x, chi2, covariance or None)`` of optima found by
+    earlier starts: the run stops as soon as it is within :data:`MERGE_CHI2` and
+    :data:`MERGE_SIGMAS` of one of them (``out.merged`` is then True)."""
     lo, hi = problem.internal_bounds().T
     width = np.where(hi > lo, hi - lo, 1.0)
 
@@ -90,9 +93,22 @@ def _polish(problem: FitProblem, start, max_nfev: int, known=()):
     def vector(p):
         return np.array([p[f"p{i}"].value for i in range(problem.ndim)])
 
+    evaluations = [0]
+    last = {}  # the residual vector of the last trial point, which the Jacobian reuses
+
     def residual(p):
-        r = problem.objective_residuals(vector(p))
-        return np.where(np.isfinite(r), r, 1e6)
+        x = vector(p)
+        r = _finite(problem.objective_residuals(x))
+        evaluations[0] += 1
+        last.clear()
+        last[x.tobytes()] = r
+        return r
+
+    def jacobian(p):
+        x = vector(p)
+        jac, n = _batched_jacobian(problem, x, last.get(x.tobytes()), lo, hi)
+        evaluations[0] += n
+        return jac
 
     def near(x, k_x, k_cov):
         if k_cov is not None:
@@ -103,9 +119,12 @@ def _polish(problem: FitProblem, start, max_nfev: int, known=()):
                 pass
         return np.max(np.abs(x - k_x) / width) <= 0.01
 
-    merged = []
+    merged, spent = [], []
 
-    def reached_known(p, _iteration, resid, *args, **kws):
+    def stop(p, _iteration, resid, *args, **kws):
+        if evaluations[0] >= max_nfev:
+            spent.append(True)
+            return True
         if not known:
             return False
         x, cost = vector(p), float(np.sum(resid**2))
@@ -122,13 +141,51 @@ def _polish(problem: FitProblem, start, max_nfev: int, known=()):
             residual,
             params,
             method="least_squares",
-            max_nfev=max_nfev,
-            diff_step=DIFF_STEP,
-            iter_cb=reached_known,
+            # the budget is kept by ``stop`` (lmfit would not count the Jacobian's points)
+            max_nfev=10 * max_nfev + 10,
+            jac=jacobian,
+            iter_cb=stop,
         )
-    out.merged = bool(merged)
+    out.merged = bool(merged) and not spent
+    if spent:
+        out.message = f"Fit aborted: number of model evaluations >= {max_nfev}"
     x = vector(out.params)
-    return out, x, float(np.sum(residual(out.params) ** 2))
+    cost = float(np.sum(residual(out.params) ** 2))
+    out.nfev = evaluations[0] - 1  # (not the re-evaluation just above)
+    return out, x, cost
+
+
+def _finite(r):
+    """Non-finite residuals (a failed evaluation) as a large finite value, which the trust
+    region steps back from."""
+    return np.where(np.isfinite(r), r, 1e6)
+
+
+def _batched_jacobian(problem: FitProblem, x, r0, lo, hi):
+    """Forward-difference Jacobian of the objective residuals at ``x``, all ``P`` shifted
+    vectors (and ``x`` itself unless its residuals ``r0`` are given) in one batched call:
+    ``(J, evaluations)``.
+
+    The steps are scipy's for ``least_squares(..., diff_step=DIFF_STEP)`` (``2-point``):
+    ``DIFF_STEP |x_i|`` (``sqrt(eps) max(1, |x_i|)`` where that rounds to nothing), taken
+    backward where the forward step leaves the box, so the polish takes the path it took
+    with scipy's own differences (the same optima to ~1e-8 on the cases benchmarked).
+    The difference: scipy evaluates the ``P`` points one by one; one batched call costs
+    less (Permalloy, 73 rows, per vector: cubic_hc 1.3 against 2.2 ms, constant_width 1.1
+    against 1.8 ms, Preisach 6.4 against 7.9 ms).
+    """
+    sign = np.where(x >= 0, 1.0, -1.0)
+    h = DIFF_STEP * sign * np.abs(x)
+    h = np.where((x + h) - x == 0, _SQRT_EPS * sign * np.maximum(1.0, np.abs(x)), h)
+    h = np.where((x + h < lo) | (x + h > hi), -h, h)
+    shifted = x + np.diag(h)
+    dx = np.diagonal(shifted) - x  # the step as represented
+    batch = shifted if r0 is not None else np.vstack([x[None], shifted])
+    with np.errstate(all="ignore"):
+        R = _finite(problem.objective_residuals(batch))
+    if r0 is None:
+        r0, R = R[0], R[1:]
+    return ((R - r0) / dx[:, None]).T, len(batch)
 
 
 def _polish_further(problem: FitProblem, polished, max_nfev: int):

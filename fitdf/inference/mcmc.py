@@ -354,18 +354,31 @@ def _burn(tau, n_steps):
 
 
 def _run_until_converged(
-    sampler, state, n_steps, max_steps, check_every, names, progress, to_internal=None
+    sampler,
+    state,
+    n_steps,
+    max_steps,
+    check_every,
+    names,
+    progress,
+    to_internal=None,
+    extend_to=None,
 ):
     """Run ``n_steps``, then blocks of ``check_every`` until :func:`is_converged` or ``max_steps``.
 
     Stops early, too, once the chain cannot converge within ``max_steps``: when 50 times its
     autocorrelation time so far already exceeds ``max_steps`` (the estimate from a short
     chain is low, if anything, so this gives up only on chains that are surely too slow).
+    Past ``max_steps``, up to ``extend_to`` (default: no further), only a chain already 50
+    autocorrelation times long goes on, while its R-hat or bulk ESS is short: it mixes well
+    enough and needs more draws, not another sampler (Preisach on B.1 and B.2: at 4000
+    steps, 60 autocorrelation times and R-hat 1.02, ESS 310-430).
     Returns ``(tau, given_up)``: ``given_up`` is that projected length, else None.
     ``to_internal`` maps the sampler's coordinates to the reported ones (the diagnostics
     are those of the reported parameters).
     """
     to_internal = to_internal or (lambda z: z)
+    extend_to = max(max_steps, extend_to or max_steps)
     # (fewer independent chains than dimensions are not "linearly independent walkers", the
     # check emcee makes for its ensemble moves)
     state = sampler.run_mcmc(state, n_steps, progress=progress, skip_initial_state_check=True)
@@ -373,16 +386,18 @@ def _run_until_converged(
         chain = to_internal(sampler.get_chain())
         tau = autocorr_time(chain)
         n = sampler.iteration
-        if n >= max_steps:
-            return tau, None
         needed = MIN_STEPS_OVER_TAU * _tau_range(tau, n)[1]
-        if needed > max_steps:
+        if n >= max_steps:
+            if n >= extend_to or needed > n:
+                return tau, None
+        elif needed > max_steps:
             return tau, int(np.ceil(needed))
         d = chain_diagnostics(chain[_burn(tau, n) :], names)
         if is_converged(n / _tau_range(tau, n)[1], d["rhat"], d["ess_bulk"]):
             return tau, None
+        limit = max_steps if n < max_steps else extend_to
         state = sampler.run_mcmc(
-            state, min(check_every, max_steps - n), progress=progress, skip_initial_state_check=True
+            state, min(check_every, limit - n), progress=progress, skip_initial_state_check=True
         )
 
 
@@ -401,6 +416,7 @@ def fit_mcmc(
     n_chains: int = 8,
     max_pilot_rounds: int = 6,
     logit: bool = True,
+    extend_steps: int | None = None,
 ) -> PosteriorResult:
     """Sample the posterior of ``problem`` starting from the least-squares result ``lsq``.
 
@@ -413,7 +429,9 @@ def fit_mcmc(
     Production runs at least ``n_steps`` steps, then keeps going in blocks of
     ``check_every`` until the chain is converged (:func:`is_converged`) or ``max_steps``
     (default ``n_steps``: no extension) is reached, or until 50 of its autocorrelation
-    times exceed ``max_steps`` (it cannot converge there). The stopping rule only reads the
+    times exceed ``max_steps`` (it cannot converge there); a chain 50 autocorrelation times
+    long at ``max_steps`` but short of R-hat or ESS goes on up to ``extend_steps`` (default
+    None: it stops at ``max_steps``). The stopping rule only reads the
     chain, so a seed still fixes the result. ``logit`` (default) moves the walkers in the
     logit coordinates of the prior box (module docstring); False, in the internal
     coordinates themselves.
@@ -476,7 +494,15 @@ def fit_mcmc(
     max_steps = max(n_steps, max_steps or n_steps)
     # (diagnostics of the internal parameters, not of the sampler's logit coordinates)
     tau, given_up = _run_until_converged(
-        sampler, start, n_steps, max_steps, check_every, names, progress, logpost.to_internal
+        sampler,
+        start,
+        n_steps,
+        max_steps,
+        check_every,
+        names,
+        progress,
+        logpost.to_internal,
+        extend_steps,
     )
     n_steps = sampler.iteration
 
@@ -508,6 +534,7 @@ def fit_mcmc(
     diag["pilot_steps"] = pilot_steps
     diag["pilot_rounds"] = pilot_rounds
     diag["max_steps"] = max_steps
+    diag["extend_steps"] = extend_steps
     diag["steps_needed"] = given_up
     diag["converged"] = is_converged(diag["steps_over_tau"], diag["rhat"], diag["ess_bulk"])
 

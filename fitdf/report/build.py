@@ -129,6 +129,10 @@ class ReportSettings:
         MCMC production steps at least, at most (the chain is extended until it is
         converged: :func:`fitdf.inference.mcmc.is_converged`) and walkers (None: twice the
         dimensions plus two, the fewest differential evolution allows).
+    extend_steps : int or None
+        A chain 50 autocorrelation times long at ``max_steps`` that is short of R-hat or
+        ESS goes on up to this many steps (``fit_mcmc(extend_steps=...)``); the chains too
+        slow for ``max_steps`` still stop at it, or before.
     mcmc_skip : tuple of str
         Laws left out of the report's MCMC (the best laws *without* them get the chains):
         Jiles-Atherton through the exact chain costs 20-60 ms per parameter set, 5-10 times
@@ -163,6 +167,7 @@ class ReportSettings:
     mcmc_top: int | None = 3
     n_steps: int = 300
     max_steps: int = 4000
+    extend_steps: int | None = 6000
     n_walkers: int | None = None
     mcmc_skip: tuple = ("jiles_atherton",)
     cv_top: int | None = 2
@@ -212,7 +217,7 @@ def _job_lsq(data, model, seed, n_starts, chain):
     return fit(data, model, chain=chain, method="lsq", seed=seed, n_starts=n_starts)
 
 
-def _job_mcmc(lsq, seed, n_steps, n_walkers, max_steps=None):
+def _job_mcmc(lsq, seed, n_steps, n_walkers, max_steps=None, extend_steps=None):
     return with_material(
         fit_mcmc(
             lsq.problem,
@@ -222,6 +227,7 @@ def _job_mcmc(lsq, seed, n_steps, n_walkers, max_steps=None):
             n_walkers=n_walkers,
             max_steps=max_steps,
             check_every=100,
+            extend_steps=extend_steps,
         )
     )
 
@@ -331,7 +337,14 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
         for m in _top(sampled, settings.mcmc_top if "mcmc" in settings.methods else 0):
             jobs[("mcmc", b.key, m)] = (
                 _job_mcmc,
-                (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers, settings.max_steps),
+                (
+                    lsq[(b.key, m)],
+                    seed,
+                    settings.n_steps,
+                    settings.n_walkers,
+                    settings.max_steps,
+                    settings.extend_steps,
+                ),
             )
         for m in _top(ranked[b.key], settings.cv_top):
             jobs[("cv", b.key, m)] = (_job_cv, (lsq[(b.key, m)], seed, settings.cv_starts))

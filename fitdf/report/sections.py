@@ -190,6 +190,7 @@ _DIAG_KEYS = (
     "sigma_magnitude_interval",
     "sigma_phase_deg_interval",
     "max_steps",
+    "extend_steps",
     "steps_needed",
     "pilot_rounds",
 )
