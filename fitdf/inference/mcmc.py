@@ -51,6 +51,8 @@ Diagnostics
     400 (:func:`is_converged`); the chain is extended until it is, up to ``max_steps``,
     and no longer once 50 autocorrelation times exceed ``max_steps`` (it cannot converge
     there: its time goes to the chains that can; a warning names the length it needs).
+    A chain already 50 autocorrelation times long at ``max_steps`` but short of R-hat or
+    ESS may go on to ``extend_steps`` (cubic_hc on B.3: converged at 4300 steps).
 Point estimate
     ``values``, residuals and metrics use the draw of highest posterior; intervals are
     posterior percentiles (a warning says when the per-parameter medians fit far worse,
