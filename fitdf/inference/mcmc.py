@@ -388,14 +388,15 @@ def _run_until_converged(
         chain = to_internal(sampler.get_chain())
         tau = autocorr_time(chain)
         n = sampler.iteration
-        needed = MIN_STEPS_OVER_TAU * _tau_range(tau, n)[1]
+        tau_max = _tau_range(tau, n)[1]
+        needed = MIN_STEPS_OVER_TAU * tau_max
         if n >= max_steps:
             if n >= extend_to or needed > n:
                 return tau, None
         elif needed > max_steps:
             return tau, int(np.ceil(needed))
         d = chain_diagnostics(chain[_burn(tau, n) :], names)
-        if is_converged(n / _tau_range(tau, n)[1], d["rhat"], d["ess_bulk"]):
+        if is_converged(n / tau_max, d["rhat"], d["ess_bulk"]):
             return tau, None
         limit = max_steps if n < max_steps else extend_to
         state = sampler.run_mcmc(
@@ -503,8 +504,8 @@ def fit_mcmc(
         check_every,
         names,
         progress,
-        logpost.to_internal,
-        extend_steps,
+        to_internal=logpost.to_internal,
+        extend_to=extend_steps,
     )
     n_steps = sampler.iteration
 
