@@ -10,6 +10,7 @@ from synthetic import synthetic_frame
 import fitdf
 from fitdf.errors import DataError, ModelError, OptionError
 from fitdf.inference.api import DEFAULT_CHAIN, resolve_data
+from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.problem import FitProblem
 
 CHAIN = {"r_winding": 100.0, "gain": 0.95}
@@ -300,3 +301,35 @@ def test_polish_reaches_scipys_optimum_and_keeps_its_budget():
     assert 20 <= short.nfev <= 20 + problem.ndim + 1
     assert not short.success and "model evaluations" in short.message
     assert short_cost > cost
+
+
+def test_fit_names_the_rows_where_the_width_law_reaches_the_widest_loop():
+    """Least squares and MCMC carry the model's limit warning, for the rows whose peak core
+    current puts the fitted cubic law on the clip m = b/A = 1 (a Deltamax-like loop)."""
+    from fitdf.models.cubic_hc import cubic_width
+
+    values, _ = TRUTH["cubic_hc"]
+    square = {**values, "alpha": 1.5}  # m > 1 below h1: the widest loop at low currents
+    frame = synthetic_frame(
+        "cubic_hc", {**square, **CHAIN}, chain="winding", source_impedances=(0.0, 600.0)
+    )
+    fixed = {n: v for n, v in {**square, **CHAIN}.items() if n != "alpha"}
+    r = fitdf.fit(frame, "cubic_hc", chain="winding", policy="all", fixed=fixed, n_starts=1)
+    assert r.values["alpha"] == pytest.approx(1.5, rel=0.05)
+    current = r.problem.core_currents(r.internal)
+    law = {n: r.values[n] for n in ("alpha", "beta", "h0", "h1", "tail_slope")}
+    on_clip = cubic_width(current, **law) >= 0.99 * current
+    assert 0 < on_clip.sum() < current.size  # some rows on the clip, not all
+    (warning,) = [w for w in r.warnings if "widest loop" in w]
+    assert f"at {on_clip.sum()} of {current.size} rows" in warning
+    post = fit_mcmc(r.problem, r, n_steps=60, pilot_steps=40, max_pilot_rounds=1)
+    assert any("widest loop" in w for w in post.warnings)
+    plain = fitdf.fit(
+        synthetic("cubic_hc", chain="winding"),
+        "cubic_hc",
+        chain="winding",
+        policy="all",
+        fixed={n: v for n, v in {**values, **CHAIN}.items() if n != "alpha"},
+        n_starts=1,
+    )
+    assert not any("widest loop" in w for w in plain.warnings)

@@ -389,3 +389,23 @@ def test_cubic_from_kennelly(a, inv_b):
     printed = H / a - b * H**3 / (a * (a + b * H))
     np.testing.assert_allclose(corrected, kennelly(H), rtol=1e-12)
     assert np.abs(printed - kennelly(H)).max() > 0.1 * kennelly(H).max()
+
+
+def test_cubic_limit_warning_names_the_rows_on_the_widest_loop():
+    """Rows named as on the widest loop are those whose DF no longer depends on alpha (the
+    clip ``m = 1`` sets them), checked on the numerical referee of the loop itself."""
+    theta = dict(k=1.0, c=np.inf, alpha=1.5, beta=0.5, h0=1e-9, h1=10.0, tail_slope=0.01)
+    A = np.array([0.2, 0.5, 0.9, 0.99, 1.1, 1.5])  # m = 1.5 - 0.5 A^2: 1.48 ... 0.375
+    (warning,) = CubicHc.limit_warnings(A, **theta)
+    assert "widest loop" in warning and "at 4 of 6 rows" in warning
+    assert "peak currents 0.2..0.99 A" in warning
+    wider = {**theta, "alpha": 1.1 * theta["alpha"]}
+    before, after = (
+        CubicHc.numerical_describing_function(A, n_points=2**12, **t) for t in (theta, wider)
+    )
+    clipped = 1.5 - 0.5 * A**2 >= 1.0  # the first four (0.99: m = 1.01)
+    np.testing.assert_allclose(after[clipped], before[clipped], rtol=1e-12, atol=1e-12)
+    assert np.all(np.abs(after[~clipped] - before[~clipped]) > 1e-2)
+    # within the margin but not on the clip: still named (m = 0.995 at A = 1)
+    assert "at 1 of 1 rows" in CubicHc.limit_warnings([1.0], **{**theta, "beta": 0.505})[0]
+    assert CubicHc.limit_warnings(A, **{**theta, "alpha": 0.9}) == []

@@ -384,7 +384,11 @@ def fit_lsq(
         **residual_metrics(predicted, problem.data.measured),
         **information_criteria(wres, problem.ndim),
     }
-    warns = bound_warnings(problem, x) + identifiability_warnings(problem, intervals)
+    warns = (
+        bound_warnings(problem, x)
+        + identifiability_warnings(problem, intervals)
+        + problem.limit_warnings(x)
+    )
     if covar is None:
         warns.append("covariance matrix not available (singular Jacobian): uncertainties are NaN")
     if not out.success:

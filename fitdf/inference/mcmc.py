@@ -582,6 +582,7 @@ def fit_mcmc(
             f"posterior is multimodal or strongly skewed: the per-parameter medians fit far worse "
             f"(chi2 {chi2_median:.0f}) than the best draw (chi2 {chi2_point:.0f}); values are the best draw"
         )
+    warns += problem.limit_warnings(point)
     values = {k: float(v) for k, v in problem.full_natural(point).items()}
     intervals = {}
     for i, s in enumerate(problem.specs):

@@ -223,6 +223,13 @@ class FitProblem:
             )
         )
 
+    def limit_warnings(self, internal) -> list[str]:
+        """The model's :meth:`~fitdf.models.base.HysteresisModel.limit_warnings` at one internal
+        vector, at the peak core currents of the data rows (the chain's operating point)."""
+        values = self.full_natural(np.asarray(internal, float))
+        theta = {s.name: float(values[s.name]) for s in self.model.params}
+        return self.model.limit_warnings(self.core_currents(internal), **theta)
+
     # ---------------------------------------------------------------- residuals
     def error_components(self, predicted):
         """Radial (magnitude) and tangential (|D| x phase) parts of ``M - D``."""

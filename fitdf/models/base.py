@@ -56,6 +56,13 @@ class HysteresisModel(Parametrized):
         )
 
     @classmethod
+    def limit_warnings(cls, amplitude, **theta) -> list[str]:
+        """Where the law at ``theta`` meets, at the peak inputs ``amplitude``, a limit of its
+        loop family that no parameter bound shows (a clip inside the law): one sentence
+        each, for the fit's warnings. None by default."""
+        return []
+
+    @classmethod
     def evaluate(cls, amplitude, frequency, theta):
         """Batched ``N``: ``theta`` of shape ``(..., p)`` gives a result of shape ``(..., n)``.
 

@@ -36,7 +36,14 @@ from fitdf.models.base import HysteresisModel
 from fitdf.models.constant_width import C_SPEC, K_SPEC
 from fitdf.params import ParamSpec
 
-__all__ = ["CubicHc", "cubic_width", "cubic_from_kennelly", "ks_magnet_steel_hc", "KS_MAGNET_STEEL"]
+__all__ = [
+    "CubicHc",
+    "WIDEST_LOOP_MARGIN",
+    "cubic_width",
+    "cubic_from_kennelly",
+    "ks_magnet_steel_hc",
+    "KS_MAGNET_STEEL",
+]
 
 #: Eq 4.11 (K-S magnet steel, thesis field units) in the parameters of :func:`cubic_width`.
 KS_MAGNET_STEEL = {"alpha": 0.6, "beta": 7.5e-3, "h0": 0.5, "h1": 5.0, "tail_slope": 0.04}
@@ -128,6 +135,11 @@ def cubic_from_kennelly(a, b, hm_max):
     return 1.0 / a, b / (hm_max * a * (a + b * hm_max))
 
 
+#: :meth:`CubicHc.limit_warnings` names the rows whose width is within this fraction of the
+#: widest loop, ``b(A) = A`` (a posterior near the clip is as hard to sample as one on it).
+WIDEST_LOOP_MARGIN = 0.01
+
+
 class CubicHc(HysteresisModel):
     """Fig 4.2 loop with the cubic coercive-force width law of eqs 4.8 and 4.11.
 
@@ -200,6 +212,32 @@ class CubicHc(HysteresisModel):
         # A = 0: b/A -> 0 inside the dead zone (h0 > 0), -> alpha when h0 = 0
         m0 = np.where(np.asarray(h0) > 0.0, 0.0, alpha)
         return np.clip(ratio(b, A, m0), 0.0, 1.0)
+
+    @classmethod
+    def limit_warnings(cls, amplitude, *, alpha, beta, h0, h1, tail_slope, **_):
+        """Rows whose eq 4.8 width reaches the widest Fig 4.2 loop, ``b(A) >= A``.
+
+        ``m = b/A`` is clipped at 1 (a loop as wide as the input swing; eqs 4.6/4.7 at
+        ``m = 1``), so where the law asks for more, the clip sets the loop and ``alpha``,
+        ``beta`` are bounded by the data only from one side. The likelihood has a kink
+        along ``m = 1``: a posterior that sits there (the square-loop Deltamax blocks B.2
+        and B.5, with ``alpha`` ~ 1) is one that random-walk and independence moves
+        explore slowly, so this names the cause of such a chain's slow mixing.
+        """
+        A = np.asarray(amplitude, float).ravel()
+        b = cubic_width(A, alpha, beta, h0, h1, tail_slope)
+        widest = (A > 0) & (b >= (1.0 - WIDEST_LOOP_MARGIN) * A)
+        if not widest.any():
+            return []
+        lo, hi = A[widest].min(), A[widest].max()
+        return [
+            f"the cubic width law reaches the widest loop (b(A) >= {1 - WIDEST_LOOP_MARGIN:g} A) "
+            f"at {int(widest.sum())} of {A.size} rows (peak currents {lo:.3g}..{hi:.3g} A): "
+            "m = b/A is clipped at 1 there (a loop as wide as the input swing), where the DF's "
+            "in-phase part, k (1 - m) below saturation, vanishes; those rows bound alpha and "
+            "beta from one side only, and the likelihood has a kink along m = 1, on which "
+            "MCMC mixes slowly"
+        ]
 
     @classmethod
     def ascending_branch(
