@@ -5,6 +5,7 @@ import pytest
 from synthetic import synthetic_frame
 
 from fitdf.inference.api import resolve_data
+from fitdf.inference.caveats import posterior_bound_warnings
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.mcmc import LogPosterior, fit_mcmc
 from fitdf.inference.problem import FitProblem
@@ -178,3 +179,18 @@ def test_sampling_in_logit_coordinates_keeps_the_posterior(problem, lsq, monkeyp
     u = (flat - box[:, 0]) / (box[:, 1] - box[:, 0])  # uniform on [0, 1]: mean 1/2, sd 0.289
     np.testing.assert_allclose(u.mean(axis=0), 0.5, atol=0.05)
     np.testing.assert_allclose(u.std(axis=0), np.sqrt(1 / 12), rtol=0.1)
+    # 16 % of the half-normal lies within 1 % of the box from the bound; 1 % of a flat one
+    (bound,) = [w for w in r.warnings if "runs into" in w]
+    assert f"posterior of {problem.names[0]} runs into its lower bound" in bound
+
+
+def test_posterior_bound_warning_counts_the_draws_at_a_bound(problem):
+    lo, hi = problem.internal_bounds().T
+    rng = np.random.default_rng(0)
+    draws = lo + (hi - lo) * rng.random((20000, problem.ndim))
+    assert posterior_bound_warnings(problem, draws) == []  # flat: 1 % near each bound
+    # piled at the upper bound: exponential with scale 1 % of the box, 1 - 1/e within it
+    draws[:, 1] = hi[1] - 0.01 * (hi[1] - lo[1]) * rng.exponential(size=len(draws))
+    (warning,) = posterior_bound_warnings(problem, draws)
+    assert f"posterior of {problem.names[1]} runs into its upper bound" in warning
+    assert "63 % of the draws" in warning

@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import qmc
 
-from fitdf.data.cores import MATERIAL_LIMITS
+from fitdf.inference.caveats import bound_warnings, identifiability_warnings
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, residual_table
@@ -271,55 +271,6 @@ def _uncertainties(problem: FitProblem, x, covar):
     else:
         corr = np.full((len(x), len(x)), np.nan)
     return stderr, intervals, pd.DataFrame(corr, index=names, columns=names)
-
-
-def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
-    """What a parameter on a bound means: the data push it past the box, so the box, not the
-    data, sets its value (and the other parameters are conditional on it)."""
-    out = []
-    for i, s in enumerate(problem.specs):
-        lo, hi = s.internal_bounds
-        tol = rel * (hi - lo)
-        side = "lower" if x[i] - lo < tol else "upper" if hi - x[i] < tol else None
-        if side is None:
-            continue
-        bound = s.bounds[0] if side == "lower" else s.bounds[1]
-        why = _box_reason(problem, s, side)
-        out.append(
-            f"parameter {s.name} sits on its {side} bound {bound:.4g} {s.unit}{why}: the data "
-            f"want a {'smaller' if side == 'lower' else 'larger'} value and do not determine it"
-        )
-    return out
-
-
-def _box_reason(problem: FitProblem, spec, side) -> str:
-    if problem.geometry is None or spec.quantity not in MATERIAL_LIMITS:
-        return ""
-    what, lo, _, hi, _ = MATERIAL_LIMITS[spec.quantity]
-    return f" (the physical limit {what} = {lo if side == 'lower' else hi:g})"
-
-
-def identifiability_warnings(
-    problem: FitProblem, intervals: dict, decades: float = 1.0
-) -> list[str]:
-    """Parameters whose 68 % interval spans more than ``decades`` (log) or its whole box: the
-    data do not determine them (a prior, where there is one, does)."""
-    out = []
-    for s in problem.specs:
-        iv = intervals.get(s.name, {})
-        lo, hi = iv.get("p16", np.nan), iv.get("p84", np.nan)
-        if not (np.isfinite(lo) and np.isfinite(hi)):
-            continue
-        wide = (s.log and lo > 0 and np.log10(hi / lo) > decades) or (
-            not s.log and hi - lo >= 0.5 * (s.bounds[1] - s.bounds[0])
-        )
-        if wide:
-            held = " (held by its prior)" if s.name in problem.priors else ""
-            out.append(
-                f"the data do not determine {s.name}: 68% interval {lo:.3g}..{hi:.3g} "
-                f"{s.unit}{held}".replace("  ", " ")
-            )
-    return out
 
 
 def fit_lsq(

@@ -69,6 +69,7 @@ import pandas as pd
 from scipy.special import expit, log_expit, logit
 
 from fitdf._arviz import az
+from fitdf.inference.caveats import posterior_bound_warnings
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, PosteriorResult, residual_table
@@ -582,7 +583,7 @@ def fit_mcmc(
             f"posterior is multimodal or strongly skewed: the per-parameter medians fit far worse "
             f"(chi2 {chi2_median:.0f}) than the best draw (chi2 {chi2_point:.0f}); values are the best draw"
         )
-    warns += problem.limit_warnings(point)
+    warns += posterior_bound_warnings(problem, flat[:, :P]) + problem.limit_warnings(point)
     values = {k: float(v) for k, v in problem.full_natural(point).items()}
     intervals = {}
     for i, s in enumerate(problem.specs):

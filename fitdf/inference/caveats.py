@@ -1,0 +1,87 @@
+"""What a fit's numbers do not say: parameters held by their box, or left open by the data.
+
+Shared by least squares (at the optimum, with its covariance intervals) and MCMC (over the
+posterior draws): a value on a bound is the box's, not the data's, and is reported as such.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fitdf.data.cores import MATERIAL_LIMITS
+from fitdf.inference.problem import FitProblem
+
+__all__ = ["bound_warnings", "identifiability_warnings", "posterior_bound_warnings"]
+
+
+def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
+    """What a parameter on a bound means: the data push it past the box, so the box, not the
+    data, sets its value (and the other parameters are conditional on it)."""
+    out = []
+    for i, s in enumerate(problem.specs):
+        lo, hi = s.internal_bounds
+        tol = rel * (hi - lo)
+        side = "lower" if x[i] - lo < tol else "upper" if hi - x[i] < tol else None
+        if side is None:
+            continue
+        bound = s.bounds[0] if side == "lower" else s.bounds[1]
+        why = _box_reason(problem, s, side)
+        out.append(
+            f"parameter {s.name} sits on its {side} bound {bound:.4g} {s.unit}{why}: the data "
+            f"want a {'smaller' if side == 'lower' else 'larger'} value and do not determine it"
+        )
+    return out
+
+
+def _box_reason(problem: FitProblem, spec, side) -> str:
+    if problem.geometry is None or spec.quantity not in MATERIAL_LIMITS:
+        return ""
+    what, lo, _, hi, _ = MATERIAL_LIMITS[spec.quantity]
+    return f" (the physical limit {what} = {lo if side == 'lower' else hi:g})"
+
+
+def identifiability_warnings(
+    problem: FitProblem, intervals: dict, decades: float = 1.0
+) -> list[str]:
+    """Parameters whose 68 % interval spans more than ``decades`` (log) or its whole box: the
+    data do not determine them (a prior, where there is one, does)."""
+    out = []
+    for s in problem.specs:
+        iv = intervals.get(s.name, {})
+        lo, hi = iv.get("p16", np.nan), iv.get("p84", np.nan)
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            continue
+        wide = (s.log and lo > 0 and np.log10(hi / lo) > decades) or (
+            not s.log and hi - lo >= 0.5 * (s.bounds[1] - s.bounds[0])
+        )
+        if wide:
+            held = " (held by its prior)" if s.name in problem.priors else ""
+            out.append(
+                f"the data do not determine {s.name}: 68% interval {lo:.3g}..{hi:.3g} "
+                f"{s.unit}{held}".replace("  ", " ")
+            )
+    return out
+
+
+def posterior_bound_warnings(problem: FitProblem, draws, rel=0.01, mass=0.025) -> list[str]:
+    """Parameters whose posterior runs into a bound of the box: at least ``mass`` of the
+    internal ``draws`` ``(n, P)`` lie within ``rel`` of the box's width from it. The
+    posterior is then cut off by the box, not by the data (constant_width on B.2: ``k``
+    climbs to the relay limit), and its intervals and any chain along it say so much less
+    than they seem to."""
+    draws = np.asarray(draws, float).reshape(-1, problem.ndim)
+    out = []
+    for i, s in enumerate(problem.specs):
+        lo, hi = s.internal_bounds
+        tol = rel * (hi - lo)
+        near = {"lower": np.mean(draws[:, i] - lo < tol), "upper": np.mean(hi - draws[:, i] < tol)}
+        side = max(near, key=near.get)
+        if near[side] < mass:
+            continue
+        bound = s.bounds[0] if side == "lower" else s.bounds[1]
+        out.append(
+            f"the posterior of {s.name} runs into its {side} bound {bound:.4g} {s.unit}"
+            f"{_box_reason(problem, s, side)}: {100 * near[side]:.0f} % of the draws lie within "
+            f"{100 * rel:g} % of the box from it; the box, not the data, ends it there"
+        )
+    return out
