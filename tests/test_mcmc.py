@@ -182,6 +182,11 @@ def test_sampling_in_logit_coordinates_keeps_the_posterior(problem, lsq, monkeyp
     # 16 % of the half-normal lies within 1 % of the box from the bound; 1 % of a flat one
     (bound,) = [w for w in r.warnings if "runs into" in w]
     assert f"posterior of {problem.names[0]} runs into its lower bound" in bound
+    # the flat ones span more than a decade (log) or half their box: the data leave them open
+    open_ = {
+        w.split("do not determine ")[1].split(":")[0] for w in r.warnings if "do not determine" in w
+    }
+    assert open_ == set(problem.names[1:]) == {"c", "m", "r_winding", "gain"}
 
 
 def test_posterior_bound_warning_counts_the_draws_at_a_bound(problem):

@@ -53,6 +53,15 @@ Diagnostics
     there: its time goes to the chains that can; a warning names the length it needs).
     A chain already 50 autocorrelation times long at ``max_steps`` but short of R-hat or
     ESS may go on to ``extend_steps`` (cubic_hc on B.3: converged at 4300 steps).
+Caveats
+    Besides the diagnostics, the warnings name what the posterior does not settle
+    (:mod:`fitdf.inference.caveats`): a parameter whose posterior runs into a bound of its
+    box, or that the data leave open (68 % interval over a decade, or half its box), and
+    any limit of the loop family the model meets at the point estimate
+    (:meth:`fitdf.models.base.HysteresisModel.limit_warnings`). Those are, in the report,
+    what the chains that do not converge have in common: weakly determined parameters
+    whose range couples to the others (Preisach's ``l_rev`` when ``f_rev`` is small) and
+    kinks (cubic_hc's widest loop).
 Point estimate
     ``values``, residuals and metrics use the draw of highest posterior; intervals are
     posterior percentiles (a warning says when the per-parameter medians fit far worse,
@@ -69,7 +78,7 @@ import pandas as pd
 from scipy.special import expit, log_expit, logit
 
 from fitdf._arviz import az
-from fitdf.inference.caveats import posterior_bound_warnings
+from fitdf.inference.caveats import identifiability_warnings, posterior_bound_warnings
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, PosteriorResult, residual_table
@@ -592,6 +601,7 @@ def fit_mcmc(
     for j, n in enumerate(["sigma_magnitude", "sigma_phase_deg"]):
         q = np.percentile(10 ** flat[:, P + j], [2.5, 16, 50, 84, 97.5])
         diag[f"{n}_interval"] = dict(zip(["p2.5", "p16", "p50", "p84", "p97.5"], map(float, q)))
+    warns += identifiability_warnings(problem, intervals)
     stderr = {s.name: float(np.std(nat[:, i])) for i, s in enumerate(problem.specs)}
     corr = pd.DataFrame(
         np.corrcoef(flat[:, :P], rowvar=False).reshape(P, P),
