@@ -420,3 +420,26 @@ def test_approximate_chain_refit_starts_at_the_exact_optimum():
     )
     assert approx.info["starts_chi2"][0] == pytest.approx(alone.info["starts_chi2"][0], rel=1e-12)
     assert approx.metrics["chi2"] <= alone.metrics["chi2"] + 1e-9
+
+
+def test_settings_line_states_the_mcmc_and_cv_that_ran():
+    # the committed report's own settings: walkers chosen by the sampler (None), the step
+    # limits, the skipped law, folds polished from the optimum (cv_starts None)
+    settings = json.loads(COMMITTED.read_text())["settings"]
+    (kind, items), *_ = outline._settings_text(
+        {"settings": settings, "timing": {}, "fitdf_version": "x", "seed": 0}
+    )
+    line = next(i for i in items if i.startswith("least squares"))
+    assert "None" not in line
+    assert (
+        f"up to {settings['max_steps']}" in line
+        and f"{settings['extend_steps']} for a chain" in line
+    )
+    assert "not sampled: `jiles_atherton`" in line
+    assert "each fold polished from the block's optimum" in line
+    quick = {**settings, "methods": ["lsq"], "cv_starts": 2, "extend_steps": None}
+    (_, items), *_ = outline._settings_text(
+        {"settings": quick, "timing": {}, "fitdf_version": "x", "seed": 0}
+    )
+    line = next(i for i in items if i.startswith("least squares"))
+    assert "no MCMC" in line and "2 starts per fold" in line

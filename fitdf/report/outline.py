@@ -29,15 +29,36 @@ _SMALL = "Small signals: a DC-bias hypothesis"
 def _settings_text(res) -> list:
     s, t = res["settings"], res["timing"]
     mcmc = (
-        "MCMC (emcee, DE moves) for the best {top} least-squares models of each block: {w} walkers x {n} steps".format(
-            top="all" if s["mcmc_top"] is None else s["mcmc_top"], w=s["n_walkers"], n=s["n_steps"]
+        "MCMC (emcee: a discarded pilot, then independent chains) for the best {top} "
+        "least-squares models of each block{skip}: {w} walkers in the pilot, at least {n} "
+        "production steps, extended until converged up to {mx}{ext}".format(
+            top="all" if s["mcmc_top"] is None else s["mcmc_top"],
+            skip=(
+                " (not sampled: " + ", ".join(f"`{m}`" for m in s["mcmc_skip"]) + ")"
+                if s.get("mcmc_skip")
+                else ""
+            ),
+            w="2 d + 2 (d sampled dimensions)" if s["n_walkers"] is None else s["n_walkers"],
+            n=s["n_steps"],
+            mx=s.get("max_steps") or s["n_steps"],
+            ext=(
+                f" ({s['extend_steps']} for a chain that mixes but is short of R-hat or ESS)"
+                if s.get("extend_steps")
+                else ""
+            ),
         )
         if "mcmc" in s["methods"] and s["mcmc_top"] != 0
         else "no MCMC"
     )
     cv = (
         f"leave-one-frequency-out cross-validation for the best {s['cv_top'] if s['cv_top'] is not None else 'all'} "
-        f"models ({s['cv_starts']} starts per fold)"
+        "models ("
+        + (
+            "each fold polished from the block's optimum"
+            if s["cv_starts"] is None
+            else f"{s['cv_starts']} starts per fold"
+        )
+        + ")"
         if s["cv_top"] != 0
         else "no cross-validation"
     )
