@@ -173,7 +173,8 @@ def test_pareto_k_above_0_7_counts_as_bad(monkeypatch):
 TRUE = {"k": 60.0, "c": 0.035, "m": 0.3, "r_winding": 100.0, "gain": 0.95}
 
 
-def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch):
+@pytest.mark.parametrize("marginal", [True, False])
+def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch, marginal):
     frame = synthetic_frame(
         "proportional_width", TRUE, chain="winding", source_impedances=(0.0, 600.0), seed=11
     )
@@ -191,9 +192,12 @@ def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch):
     spy("chain_diagnostics", chain_diagnostics)
     spy("autocorr_time", autocorr_time)
     n_steps, n_walkers = 150, 16
-    r = fit_mcmc(problem, lsq, seed=1, n_steps=n_steps, n_walkers=n_walkers)
-    d, ndim = r.diagnostics, problem.ndim + 2
-    names = problem.names + ["sigma_magnitude", "sigma_phase_deg"]
+    r = fit_mcmc(
+        problem, lsq, seed=1, n_steps=n_steps, n_walkers=n_walkers, marginal_noise=marginal
+    )
+    # the sampler's coordinates: the parameters, with the noise scales unless integrated out
+    names = problem.names + ([] if marginal else ["sigma_magnitude", "sigma_phase_deg"])
+    d, ndim = r.diagnostics, len(names)
     # emcee's orientation: (draw, walker, parameter), the post-burn chain for R-hat and ESS;
     # production continues 8 of the pilot's walkers as independent chains
     assert d["n_walkers"] == 8 and r.info["n_walkers"] == 8
