@@ -210,3 +210,28 @@ def test_noise_box_excludes_the_predict_nothing_mode(monkeypatch):
     monkeypatch.setattr(noise_module, "NOISE_BOUNDS", np.array([[-3.0, 0.0], [-1.0, np.log10(50)]]))
     fitted, degenerate = LogPosterior(problem, marginal_noise=True)(X)
     assert degenerate > fitted  # why the box stops at 0.3
+
+
+def test_noise_scale_against_its_cap_is_named():
+    """A noise scale whose draws pile up at a bound of NOISE_BOUNDS is reported (the
+    magnitude's cap: the law gives up its magnitudes); one inside the box is not."""
+    from fitdf.inference.caveats import noise_bound_warnings
+
+    rng = np.random.default_rng(0)
+    (m_lo, m_hi), (p_lo, p_hi) = NOISE_BOUNDS
+    inside = np.column_stack([rng.uniform(-2.0, -1.5, 4000), rng.uniform(0.0, 0.5, 4000)])
+    assert noise_bound_warnings(inside) == []
+    # 5 % of the magnitude draws within 1 % of the box from its upper bound 0.3
+    at_cap = inside.copy()
+    at_cap[:200, 0] = m_hi - 0.005 * (m_hi - m_lo)
+    (w,) = noise_bound_warnings(at_cap)
+    assert "sigma_magnitude runs into its upper bound 0.3" in w and "gives up its magnitudes" in w
+    assert "5 % of the draws" in w
+    # 2 % is below the rule's 2.5 %
+    at_cap[80:200, 0] = -1.8
+    assert noise_bound_warnings(at_cap) == []
+    # the phase scale at its lower bound 0.1 degree
+    low = inside.copy()
+    low[:400, 1] = p_lo + 0.001
+    (w,) = noise_bound_warnings(low)
+    assert "sigma_phase_deg runs into its lower bound 0.1" in w

@@ -9,9 +9,15 @@ from __future__ import annotations
 import numpy as np
 
 from fitdf.data.cores import MATERIAL_LIMITS
+from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES
 from fitdf.inference.problem import FitProblem
 
-__all__ = ["bound_warnings", "identifiability_warnings", "posterior_bound_warnings"]
+__all__ = [
+    "bound_warnings",
+    "identifiability_warnings",
+    "posterior_bound_warnings",
+    "noise_bound_warnings",
+]
 
 
 def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
@@ -83,5 +89,37 @@ def posterior_bound_warnings(problem: FitProblem, draws, rel=0.01, mass=0.025) -
             f"the posterior of {s.name} runs into its {side} bound {bound:.4g} {s.unit}"
             f"{_box_reason(problem, s, side)}: {100 * near[side]:.0f} % of the draws lie within "
             f"{100 * rel:g} % of the box from it; the box, not the data, ends it there"
+        )
+    return out
+
+
+#: Why a noise scale's posterior may run into a bound: (scale, side) -> what it means.
+_NOISE_BOUND_REASONS = {
+    ("sigma_magnitude", "upper"): (
+        " (the law gives up its magnitudes to fit its phases: a describing function shrunk "
+        "toward zero fits every phase, and the cap keeps the posterior from going there)"
+    ),
+    ("sigma_phase_deg", "upper"): " (the law does not follow the measured phases)",
+}
+
+
+def noise_bound_warnings(log10_noise, rel=0.01, mass=0.025) -> list[str]:
+    """The fitted noise scales whose posterior runs into a bound of :data:`NOISE_BOUNDS`,
+    by the rule of :func:`posterior_bound_warnings` on draws ``(..., 2)`` of ``log10``
+    ``(sigma_magnitude, sigma_phase_deg)``."""
+    draws = np.asarray(log10_noise, float).reshape(-1, 2)
+    out = []
+    for j, name in enumerate(NOISE_NAMES):
+        lo, hi = NOISE_BOUNDS[j]
+        tol = rel * (hi - lo)
+        near = {"lower": np.mean(draws[:, j] - lo < tol), "upper": np.mean(hi - draws[:, j] < tol)}
+        side = max(near, key=near.get)
+        if near[side] < mass:
+            continue
+        bound = 10.0 ** (lo if side == "lower" else hi)
+        out.append(
+            f"the posterior of the noise scale {name} runs into its {side} bound {bound:.3g}"
+            f"{_NOISE_BOUND_REASONS.get((name, side), '')}: {100 * near[side]:.0f} % of the "
+            f"draws lie within {100 * rel:g} % of the box from it; the box, not the data, ends it"
         )
     return out

@@ -85,7 +85,11 @@ import pandas as pd
 from scipy.special import expit, log_expit, logit
 
 from fitdf._arviz import az
-from fitdf.inference.caveats import identifiability_warnings, posterior_bound_warnings
+from fitdf.inference.caveats import (
+    identifiability_warnings,
+    noise_bound_warnings,
+    posterior_bound_warnings,
+)
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
 from fitdf.inference.problem import FitProblem
@@ -609,6 +613,7 @@ def fit_mcmc(
     for j, n in enumerate(NOISE_NAMES):
         q = np.percentile(10 ** noise_draws[..., j].ravel(), [2.5, 16, 50, 84, 97.5])
         diag[f"{n}_interval"] = dict(zip(["p2.5", "p16", "p50", "p84", "p97.5"], map(float, q)))
+    warns += noise_bound_warnings(noise_draws)
     warns += identifiability_warnings(problem, intervals)
     stderr = {s.name: float(np.std(nat[:, i])) for i, s in enumerate(problem.specs)}
     corr = pd.DataFrame(
