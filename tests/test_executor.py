@@ -153,3 +153,31 @@ def test_fits_on_workers_give_the_serial_numbers():
     assert [r.model for r in pooled.results] == kw["models"]
     assert all(p.values == s.values for p, s in zip(pooled.results, serial.results))
     assert "cv_rms_complex" in serial.table and serial.table["cv_rms_complex"].notna().all()
+
+
+class _ArgumentsLost(Exception):
+    """Like lmfit's MinimizerException (1.3.4): ``Exception.__init__`` without the message,
+    so unpickling calls the class without arguments. (Defined here: importing Dask
+    distributed makes lmfit's own exceptions picklable, tblib's pickling support.)"""
+
+    def __init__(self, msg):
+        super().__init__()
+        self.msg = msg
+
+    def __str__(self):
+        return self.msg
+
+
+def test_an_error_that_does_not_unpickle_comes_back_named():
+    """A worker's exception must survive the pipe: the report's least squares died of a
+    TypeError about ``MinimizerException.__init__`` in the parent instead of the error."""
+    import pickle
+
+    exc = _ArgumentsLost("boom")
+    with pytest.raises(TypeError):
+        pickle.loads(pickle.dumps(exc))
+    back = pickle.loads(pickle.dumps(executor._portable(exc)))
+    assert isinstance(back, RuntimeError)
+    assert str(back) == f"{__name__}._ArgumentsLost: boom"
+    plain = ZeroDivisionError("division by zero")
+    assert executor._portable(plain) is plain

@@ -339,3 +339,21 @@ def test_fit_names_the_rows_where_the_width_law_reaches_the_widest_loop():
         n_starts=1,
     )
     assert not any("widest loop" in w for w in plain.warnings)
+
+
+def test_a_budget_spent_at_the_polish_last_evaluation_ends_it_there():
+    """lmfit evaluates scipy's answer once more, through the stop callback, outside its own
+    handler: with the budget exactly the evaluations a polish takes, the callback asks to
+    stop at that evaluation. The polish ends at the same answer, not in lmfit's
+    AbortFitException (the report's least squares died of it with lmfit 1.3.4)."""
+    from fitdf.inference import lsq
+
+    problem = FitProblem(resolve_data("B.1"), "constant_width", "winding")
+    lo, hi = problem.internal_bounds().T
+    start = lo + 0.45 * (hi - lo)
+    full, x_full, cost_full = lsq._polish(problem, start, max_nfev=4000)
+    assert full.success and full.nfev < 4000
+    out, x, cost = lsq._polish(problem, start, max_nfev=full.nfev)
+    np.testing.assert_array_equal(x, x_full)
+    assert cost == cost_full
+    assert "model evaluations" in out.message and not out.merged

@@ -137,15 +137,21 @@ def _polish(problem: FitProblem, start, max_nfev: int, known=()):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # lmfit/scipy numerical chatter; outcome is checked below
-        out = lmfit.minimize(
+        minimizer = lmfit.Minimizer(
             residual,
             params,
-            method="least_squares",
+            iter_cb=stop,
             # the budget is kept by ``stop`` (lmfit would not count the Jacobian's points)
             max_nfev=10 * max_nfev + 10,
             jac=jacobian,
-            iter_cb=stop,
         )
+        try:
+            out = minimizer.minimize(method="least_squares")
+        except lmfit.minimizer.AbortFitException:
+            # lmfit (1.3.4) evaluates scipy's answer once more, through ``stop``, outside
+            # its own handler: a stop asked for there (the budget just spent, or the answer
+            # in a known basin) ends the polish at that answer, as one asked for during it
+            out = minimizer.result
     out.merged = bool(merged) and not spent
     if spent:
         out.message = f"Fit aborted: number of model evaluations >= {max_nfev}"

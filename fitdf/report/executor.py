@@ -24,6 +24,7 @@ Stopping
 from __future__ import annotations
 
 import os
+import pickle
 import signal
 import sys
 import threading
@@ -66,6 +67,17 @@ def _exit_with(parent: int) -> None:
     os._exit(1)
 
 
+def _portable(exc: BaseException) -> BaseException:
+    """``exc``, or a RuntimeError naming it where it would not come back out of a pickle
+    (lmfit's exceptions pickle but need arguments to unpickle: the parent then saw a
+    TypeError about ``MinimizerException.__init__`` instead of the error)."""
+    try:
+        pickle.loads(pickle.dumps(exc))
+        return exc
+    except Exception:
+        return RuntimeError(f"{type(exc).__module__}.{type(exc).__name__}: {exc}")
+
+
 def _serve(conn, parent: int) -> None:
     """A local worker: run the jobs the parent sends until it sends None or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops us
@@ -80,7 +92,7 @@ def _serve(conn, parent: int) -> None:
         try:
             reply = (True, timed(*job))
         except Exception as exc:
-            reply = (False, exc, traceback.format_exc())
+            reply = (False, _portable(exc), traceback.format_exc())
         try:
             conn.send(reply)
         except OSError:  # the parent is gone
