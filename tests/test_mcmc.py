@@ -38,10 +38,15 @@ def test_log_posterior_is_vectorised_and_bounded(problem, lsq):
 
 
 def test_chain_is_reproducible_with_a_seed(problem, lsq):
-    a = fit_mcmc(problem, lsq, seed=4, n_steps=200, n_walkers=16)
-    b = fit_mcmc(problem, lsq, seed=4, n_steps=200, n_walkers=16)
+    # short, but through every random part: the ball, the pilot's adapted rounds (kernel
+    # centres drawn), production and the noise scales drawn for PSIS-LOO
+    kw = dict(n_steps=100, n_walkers=16, pilot_steps=60, max_pilot_rounds=2)
+    a = fit_mcmc(problem, lsq, seed=4, **kw)
+    b = fit_mcmc(problem, lsq, seed=4, **kw)
     np.testing.assert_array_equal(a.samples, b.samples)
-    c = fit_mcmc(problem, lsq, seed=5, n_steps=200, n_walkers=16)
+    np.testing.assert_array_equal(a.noise_samples, b.noise_samples)
+    assert len(a.diagnostics["pilot_rounds"]) == 3
+    c = fit_mcmc(problem, lsq, seed=5, **kw)
     assert not np.array_equal(a.samples, c.samples)
 
 
