@@ -6,7 +6,8 @@ import numpy as np
 import pandas as pd
 
 from fitdf.chains import get_chain
-from fitdf.inference.api import DEFAULT_CHAIN
+from fitdf.inference.api import DEFAULT_CHAIN, resolve_data
+from fitdf.inference.problem import FitProblem
 from fitdf.models import get_model
 
 #: Permalloy-like amplitudes and frequencies, the size of one Appendix B table.
@@ -52,3 +53,16 @@ def synthetic_frame(
             "phase_lead_deg": np.round(phase, 1),
         }
     )
+
+
+#: The truth of :func:`mcmc_problem`: a proportional-width core and its winding chain.
+MCMC_TRUTH = {"k": 60.0, "c": 0.035, "m": 0.3, "r_winding": 100.0, "gain": 0.95}
+
+
+def mcmc_problem() -> FitProblem:
+    """The problem the MCMC tests share: proportional_width on synthetic rows at 0 and 600
+    ohm, generated and fitted through the (fast) winding chain."""
+    frame = synthetic_frame(
+        "proportional_width", MCMC_TRUTH, chain="winding", source_impedances=(0.0, 600.0), seed=11
+    )
+    return FitProblem(resolve_data(frame, policy="all"), "proportional_width", "winding")

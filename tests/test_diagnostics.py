@@ -17,11 +17,10 @@ import emcee
 import numpy as np
 import pytest
 import xarray as xr
-from synthetic import synthetic_frame
+from synthetic import mcmc_problem
 
 import fitdf.inference.mcmc as mcmc
 from fitdf.chains import solve_current
-from fitdf.inference.api import resolve_data
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.mcmc import (
     MIN_ESS,
@@ -32,7 +31,6 @@ from fitdf.inference.mcmc import (
     fit_mcmc,
     is_converged,
 )
-from fitdf.inference.problem import FitProblem
 from fitdf.models import get_model
 
 
@@ -170,15 +168,9 @@ def test_pareto_k_above_0_7_counts_as_bad(monkeypatch):
 # --- the same functions inside fit_mcmc -----------------------------------------------------
 
 
-TRUE = {"k": 60.0, "c": 0.035, "m": 0.3, "r_winding": 100.0, "gain": 0.95}
-
-
 @pytest.mark.parametrize("marginal", [True, False])
 def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch, marginal):
-    frame = synthetic_frame(
-        "proportional_width", TRUE, chain="winding", source_impedances=(0.0, 600.0), seed=11
-    )
-    problem = FitProblem(resolve_data(frame, policy="all"), "proportional_width", "winding")
+    problem = mcmc_problem()
     lsq = fit_lsq(problem, seed=0, n_starts=2)
     seen = {}
 

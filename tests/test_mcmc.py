@@ -2,7 +2,8 @@
 
 import numpy as np
 import pytest
-from synthetic import synthetic_frame
+from synthetic import MCMC_TRUTH as TRUE
+from synthetic import mcmc_problem, synthetic_frame
 
 from fitdf.inference.api import resolve_data
 from fitdf.inference.caveats import posterior_bound_warnings
@@ -10,15 +11,10 @@ from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.mcmc import LogPosterior, fit_mcmc
 from fitdf.inference.problem import FitProblem
 
-TRUE = {"k": 60.0, "c": 0.035, "m": 0.3, "r_winding": 100.0, "gain": 0.95}
-
 
 @pytest.fixture(scope="module")
 def problem():
-    frame = synthetic_frame(
-        "proportional_width", TRUE, chain="winding", source_impedances=(0.0, 600.0), seed=11
-    )
-    return FitProblem(resolve_data(frame, policy="all"), "proportional_width", "winding")
+    return mcmc_problem()
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 from scipy.special import gammainc, gammaln, logsumexp
-from synthetic import synthetic_frame
+from synthetic import mcmc_problem
 
 from fitdf.inference.api import resolve_data
 from fitdf.inference.lsq import fit_lsq
@@ -20,15 +20,10 @@ from fitdf.inference.noise import NOISE_BOUNDS, NoiseMarginal
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.proposals import KernelProposal, StudentTProposal
 
-TRUE = {"k": 60.0, "c": 0.035, "m": 0.3, "r_winding": 100.0, "gain": 0.95}
-
 
 @pytest.fixture(scope="module")
 def problem():
-    frame = synthetic_frame(
-        "proportional_width", TRUE, chain="winding", source_impedances=(0.0, 600.0), seed=11
-    )
-    return FitProblem(resolve_data(frame, policy="all"), "proportional_width", "winding")
+    return mcmc_problem()
 
 
 @pytest.fixture(scope="module")

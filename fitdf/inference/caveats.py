@@ -78,19 +78,25 @@ def posterior_bound_warnings(problem: FitProblem, draws, rel=0.01, mass=0.025) -
     draws = np.asarray(draws, float).reshape(-1, problem.ndim)
     out = []
     for i, s in enumerate(problem.specs):
-        lo, hi = s.internal_bounds
-        tol = rel * (hi - lo)
-        near = {"lower": np.mean(draws[:, i] - lo < tol), "upper": np.mean(hi - draws[:, i] < tol)}
-        side = max(near, key=near.get)
-        if near[side] < mass:
+        side, share = _bound_share(draws[:, i], *s.internal_bounds, rel)
+        if share < mass:
             continue
         bound = s.bounds[0] if side == "lower" else s.bounds[1]
         out.append(
             f"the posterior of {s.name} runs into its {side} bound {bound:.4g} {s.unit}"
-            f"{_box_reason(problem, s, side)}: {100 * near[side]:.0f} % of the draws lie within "
+            f"{_box_reason(problem, s, side)}: {100 * share:.0f} % of the draws lie within "
             f"{100 * rel:g} % of the box from it; the box, not the data, ends it there"
         )
     return out
+
+
+def _bound_share(x, lo, hi, rel):
+    """``(side, share)``: the bound of ``[lo, hi]`` more of the draws ``x`` lie within
+    ``rel`` of the width from ("lower" or "upper"), and the share of them that do."""
+    tol = rel * (hi - lo)
+    near = {"lower": np.mean(x - lo < tol), "upper": np.mean(hi - x < tol)}
+    side = max(near, key=near.get)
+    return side, float(near[side])
 
 
 #: Why a noise scale's posterior may run into a bound: (scale, side) -> what it means.
@@ -111,15 +117,13 @@ def noise_bound_warnings(log10_noise, rel=0.01, mass=0.025) -> list[str]:
     out = []
     for j, name in enumerate(NOISE_NAMES):
         lo, hi = NOISE_BOUNDS[j]
-        tol = rel * (hi - lo)
-        near = {"lower": np.mean(draws[:, j] - lo < tol), "upper": np.mean(hi - draws[:, j] < tol)}
-        side = max(near, key=near.get)
-        if near[side] < mass:
+        side, share = _bound_share(draws[:, j], lo, hi, rel)
+        if share < mass:
             continue
         bound = 10.0 ** (lo if side == "lower" else hi)
         out.append(
             f"the posterior of the noise scale {name} runs into its {side} bound {bound:.3g}"
-            f"{_NOISE_BOUND_REASONS.get((name, side), '')}: {100 * near[side]:.0f} % of the "
+            f"{_NOISE_BOUND_REASONS.get((name, side), '')}: {100 * share:.0f} % of the "
             f"draws lie within {100 * rel:g} % of the box from it; the box, not the data, ends it"
         )
     return out

@@ -25,6 +25,13 @@ from scipy.special import gammaln, logsumexp
 __all__ = ["StudentTProposal", "KernelProposal", "production_moves"]
 
 
+def _jitter(cov):
+    """``1e-12`` of the mean variance of ``cov`` on a diagonal: added, it makes ``cov``
+    positive definite where the draws are degenerate."""
+    d = cov.shape[0]
+    return 1e-12 * np.eye(d) * max(np.trace(cov) / d, 1e-300)
+
+
 class StudentTProposal:
     """Independence proposal for :class:`emcee.moves.MHMove`: a multivariate Student t.
 
@@ -37,9 +44,8 @@ class StudentTProposal:
     def __init__(self, mean, cov, nu: float = 5.0, scale: float = 1.2):
         self.mean = np.asarray(mean, float)
         d = self.mean.size
-        cov = np.atleast_2d(np.asarray(cov, float)) + 1e-12 * np.eye(d) * max(
-            np.trace(cov) / d, 1e-300
-        )
+        cov = np.atleast_2d(np.asarray(cov, float))
+        cov = cov + _jitter(cov)
         self.chol = np.linalg.cholesky(scale**2 * cov)
         self.inv_chol = np.linalg.inv(self.chol)
         self.nu = float(nu)
@@ -82,7 +88,7 @@ class KernelProposal:
             draws = draws[np.sort(rng.choice(len(draws), max_centres, replace=False))]
         k, d = draws.shape
         cov = np.atleast_2d(np.cov(draws, rowvar=False))  # (1, 1) for one parameter
-        cov = cov + 1e-12 * np.eye(d) * max(np.trace(cov) / d, 1e-300)
+        cov = cov + _jitter(cov)
         h = k ** (-1.0 / (d + 4))
         self.centres = draws
         self.chol = np.linalg.cholesky(h**2 * cov)
@@ -124,9 +130,8 @@ def production_moves(last, pool=None, rng=None):
     rng = np.random.default_rng(0) if rng is None else rng
     cov = np.atleast_2d(np.cov(last, rowvar=False))  # (1, 1) for one parameter
     d = cov.shape[0]
-    jitter = 1e-12 * np.eye(d) * max(np.trace(cov) / d, 1e-300)
     return [
         (emcee.moves.MHMove(KernelProposal(last if pool is None else pool, rng)), 0.5),
         # random-walk Metropolis at the optimal scale for a Gaussian target (2.38^2 / d)
-        (emcee.moves.GaussianMove((2.38**2 / d) * cov + jitter, mode="vector"), 0.5),
+        (emcee.moves.GaussianMove((2.38**2 / d) * cov + _jitter(cov), mode="vector"), 0.5),
     ]
