@@ -116,13 +116,18 @@ def thesis_limit_cycle_comparison(
     amplitude_range=(0.01, 20.0),
     n_starts=6,
     time_domain=False,
+    candidates=None,
 ) -> pd.DataFrame:
     """Predict the analog-computer limit cycles of Tables 5.1/5.2 from the Appendix B fits.
 
     Each (core, source impedance) block is predicted from the table measured on that
     core at that impedance (:data:`THESIS_BLOCKS`: Permalloy B.1 / B.3, Deltamax
     B.2 / B.5), with the lowest-AICc model among ``models`` (all registered models when
-    None; a list compares per block, a single name forces it) in the winding chain.
+    None; a list compares per block, a single name forces it), fitted by least squares
+    through the default (exact ``voltage``) chain with ``seed`` and ``n_starts``. Fits
+    made already can be handed in instead: ``candidates`` maps a table name (``"B.1"``...) to
+    its candidate fits, of which the lowest-AICc is used (``models``, ``seed`` and
+    ``n_starts`` are then not used for that table); the report passes its own.
 
     Assumptions (the thesis states neither where the amplitude was read nor the
     computer's scaling):
@@ -154,7 +159,12 @@ def thesis_limit_cycle_comparison(
     """
     table = pd.concat([datasets.load("table_5_1"), datasets.load("table_5_2")], ignore_index=True)
     table["source_impedance_ohm"] = table["source_impedance_ohm"].astype(float)
-    fits = {key: _fit_best(name, models, seed, n_starts) for key, name in THESIS_BLOCKS.items()}
+    fits = {
+        key: best_by_aicc(candidates[name])
+        if candidates is not None and candidates.get(name)
+        else _fit_best(name, models, seed, n_starts)
+        for key, name in THESIS_BLOCKS.items()
+    }
     osc = table[
         np.isfinite(table["omega_rad_s"]) & np.isfinite(table["amplitude_v"]) & ~table["dies_out"]
     ]

@@ -352,6 +352,33 @@ def test_fitted_limit_cycles_are_json_ready(tmp_path):
     assert text.count("\n") >= 5 and "constant_width" in text
 
 
+@pytest.mark.slow
+def test_thesis_comparison_uses_the_fits_it_is_given(monkeypatch):
+    """The report hands its own fits in: the comparison must not fit again and must take
+    the lowest-AICc candidate of each table (the slow test below checks that the answer
+    is the one fitting afresh gives)."""
+    import fitdf.thesis as thesis
+
+    candidates = {t: [fit(t, "rayleigh", seed=0, n_starts=1)] for t in ["B.1", "B.3", "B.2", "B.5"]}
+    candidates["B.1"].append(fit("B.1", "constant_width", seed=0, n_starts=1))
+
+    def no_fitting(*args, **kwargs):
+        raise AssertionError("fitted again although the fits were given")
+
+    monkeypatch.setattr(thesis, "fit", no_fitting)
+    df = thesis_limit_cycle_comparison(candidates=candidates)
+    for t, fits in candidates.items():
+        best = min(fits, key=lambda r: r.metrics["aicc"])
+        assert df.attrs["fits"][t] == {
+            "model": best.model,
+            "values": best.values,
+            "rms_complex": best.metrics["rms_complex"],
+        }
+        assert set(df.loc[df["table"] == t, "model"]) == {best.model}
+    aicc = [r.metrics["aicc"] for r in candidates["B.1"]]
+    assert abs(aicc[0] - aicc[1]) > 1.0  # the choice on B.1 is a real one
+
+
 def test_fitted_limit_cycles_need_an_impedance_when_the_data_have_two():
     with pytest.raises(OptionError, match="several source impedances"):
         fitted_limit_cycles("permalloy", THESIS_PLANT, [100.0], None, model="constant_width")
@@ -369,6 +396,11 @@ def test_thesis_comparison_runs():
     assert live["amplitude_pred"].notna().mean() > 0.5
     fig = plot_thesis_comparison(df)
     assert len(fig.axes) == 4
+    # the report's path: the same fits handed in give the very same comparison
+    candidates = {t: [fit(t, "proportional_width", seed=0)] for t in ["B.1", "B.3", "B.2", "B.5"]}
+    given = thesis_limit_cycle_comparison(candidates=candidates)
+    pd.testing.assert_frame_equal(given, df)
+    assert (given.attrs["alpha"], given.attrs["beta"]) == (df.attrs["alpha"], df.attrs["beta"])
 
 
 # ------------------------------------------------------------------ when harmonic balance says nothing

@@ -233,7 +233,7 @@ def test_limit_cycle_section_switched_off_or_failing(monkeypatch, tmp_path):
         raise RuntimeError("no convergence")
 
     monkeypatch.setattr(sections, "thesis_limit_cycle_comparison", boom)
-    rec = sections.limit_cycle_section(0, ["constant_width"], 1, tmp_path)
+    rec = sections.limit_cycle_section(0, ["constant_width"], 1, None, tmp_path)
     assert rec == {
         "available": True,
         "error": "RuntimeError: no convergence",

@@ -19,7 +19,6 @@ TINY = ReportSettings(
     extend_steps=None,
     n_walkers=16,
     cv_top=1,
-    cv_starts=1,
     cross_top=1,
     cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),),
     workers=1,

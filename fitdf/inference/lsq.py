@@ -290,6 +290,9 @@ def fit_lsq(
 ) -> FitResult:
     """Least-squares fit of ``problem`` (see the module docstring for the strategy).
 
+    ``n_starts`` screened starts are polished, times the law's ``start_multiple``
+    (:class:`~fitdf.models.base.HysteresisModel`: more for a law whose chi-square has kinks).
+
     ``starts`` (internal vectors, ``(k, P)``), if given, are polished instead of screening
     the box: a warm start, e.g. a cross-validation fold from the full data's optimum.
     With ``starts``, ``also_screen`` more starts come from the screen (a warm start that
@@ -303,6 +306,7 @@ def fit_lsq(
         ``n_agree``, ``nfev_total`` and the settings.
     """
     if starts is None:
+        n_starts = n_starts * problem.model.start_multiple
         starts = _screen(problem, np.random.default_rng(seed), n_screen, n_starts)
     else:
         starts = np.atleast_2d(np.asarray(starts, float))

@@ -72,8 +72,14 @@ def best_by_aicc(results):
     return min(results, key=lambda r: r.metrics["aicc"])
 
 
-def _fit_job(fd, model, chain, method, seed, kw):
-    return fit(fd, model, chain=chain, method=method, seed=seed, **kw)
+def _fit_job(fd, model, chain, method, seed, kw, cross_validation=False):
+    """One fit; with ``cross_validation`` (least squares only) ``(fit, its folds)``: a law's
+    folds follow its fit in the same job, so no pool waits at a barrier between the
+    fits and the folds while the dearest law is still fitting."""
+    result = fit(fd, model, chain=chain, method=method, seed=seed, **kw)
+    if not cross_validation:
+        return result
+    return result, (cross_validate(result, seed) if method == "lsq" else None)
 
 
 def fit_all(
@@ -92,12 +98,20 @@ def fit_all(
     ``{key: (function, args)}`` such as :meth:`fitdf.report.executor.Executor.run` (worker
     processes or a Dask cluster; the same numbers as in this process).
     """
+    return _fit_jobs(data, models, chains, methods, seed, progress, runner, False, kw)
+
+
+def _fit_jobs(data, models, chains, methods, seed, progress, runner, cross_validation, kw):
     models = list(models or model_names())
     fd = resolve_data(data, kw.pop("policy", "default"), kw.pop("source_impedance", None))
     combos = [(m, c, k) for m in models for c in chains for k in methods]
     # keyed by position too: a model may be listed twice (and must then be fitted twice)
-    jobs = {(i, *combo): (_fit_job, (fd, *combo, seed, kw)) for i, combo in enumerate(combos)}
-    done = _run_jobs(jobs, runner, "fitting", {key: key[1] for key in jobs}, progress)
+    jobs = {
+        (i, *combo): (_fit_job, (fd, *combo, seed, kw, cross_validation))
+        for i, combo in enumerate(combos)
+    }
+    desc = "fitting and cross-validating" if cross_validation else "fitting"
+    done = _run_jobs(jobs, runner, desc, {key: key[1] for key in jobs}, progress)
     return list(done.values())
 
 
@@ -322,17 +336,11 @@ def compare_fits(
     methods = METHOD_CHOICES.get(method)
     if methods is None:
         raise OptionError(f"unknown method {method!r}; choose lsq, mcmc or both")
-    results = fit_all(
-        data, models, chains, methods, seed=seed, progress=progress, runner=runner, **kw
-    )
-    cv = None
-    if cross_validation:
-        jobs = {
-            (i,): (cross_validate, (r, seed)) for i, r in enumerate(results) if r.method == "lsq"
-        }
-        models = {key: results[key[0]].model for key in jobs}
-        done = _run_jobs(jobs, runner, "cross-validating", models)
-        cv = {key[0]: value for key, value in done.items()}
+    done = _fit_jobs(data, models, chains, methods, seed, progress, runner, cross_validation, kw)
+    if not cross_validation:
+        return Comparison(ranking_table(done, rank_by, None), tuple(done))
+    results = [r for r, _ in done]
+    cv = {i: folds for i, (_, folds) in enumerate(done) if folds is not None}
     return Comparison(ranking_table(results, rank_by, cv), tuple(results))
 
 

@@ -36,6 +36,10 @@ class HysteresisModel(Parametrized):
     frequency_dependent: ClassVar[bool] = False
     #: True when :meth:`describing_function` is a closed form (else numerical).
     closed_form: ClassVar[bool] = True
+    #: How many times the usual number of least-squares starts the law's chi-square needs.
+    #: More than 1 for a law whose loop family clips (a kink in chi-square): its polishes
+    #: stop on many ledges, and the usual few starts can all miss the best basin.
+    start_multiple: ClassVar[int] = 1
 
     @classmethod
     def ascending_branch(cls, x, amplitude, frequency=0.0, **theta):
@@ -80,4 +84,5 @@ class HysteresisModel(Parametrized):
             "equations": cls.equations,
             "frequency_dependent": cls.frequency_dependent,
             "closed_form": cls.closed_form,
+            "start_multiple": cls.start_multiple,
         }

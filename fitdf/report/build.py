@@ -280,8 +280,8 @@ def _keep_files(drawn, figdir: Path):
     return result
 
 
-def _job_limit_cycles(seed, models, n_starts):
-    return _drawn(rs.limit_cycle_section, seed, models, n_starts)
+def _job_limit_cycles(seed, models, n_starts, candidates):
+    return _drawn(rs.limit_cycle_section, seed, models, n_starts, candidates)
 
 
 def _job_figures(kind, payload):
@@ -331,7 +331,15 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
     jobs = {}
     if settings.limit_cycles:
         winners = rs.aicc_winners(lsq, models, LIMIT_CYCLE_BLOCKS)
-        jobs[("limit",)] = (_job_limit_cycles, (seed, winners or None, settings.n_starts))
+        # the report's own fits of those blocks (the same data, chain, seed and starts a
+        # fresh comparison would fit again)
+        candidates = {
+            k: [lsq[(k, m)] for m in winners if (k, m) in lsq] for k in LIMIT_CYCLE_BLOCKS
+        }
+        jobs[("limit",)] = (
+            _job_limit_cycles,
+            (seed, winners or None, settings.n_starts, candidates),
+        )
     for b in blocks:
         sampled = [m for m in ranked[b.key] if m not in settings.mcmc_skip]
         for m in _top(sampled, settings.mcmc_top if "mcmc" in settings.methods else 0):
