@@ -1,5 +1,12 @@
-"""The command line as a user drives it: subprocesses of the installed console script."""
+"""The command line as a user drives it: subprocesses of the installed console script.
 
+The user-error cases run :func:`fitdf.cli.main` in this process instead (``run_here``): the
+one-line message and the exit code are main's, the console script only passes the code
+on (which the subprocess tests check), and an interpreter start-up per case cost ~3 s.
+"""
+
+import contextlib
+import io
 import json
 import os
 import shutil
@@ -15,6 +22,16 @@ FITDF = shutil.which("fitdf") or os.path.join(os.path.dirname(sys.executable), "
 def run(*args, timeout=600):
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}
     return subprocess.run([FITDF, *args], capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def run_here(*args):
+    """:func:`fitdf.cli.main` on ``args`` in this process, as ``run`` would report it."""
+    from fitdf.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(list(args))
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 
 def assert_user_error(proc, *fragments):
@@ -114,16 +131,16 @@ def test_fit_prints_ranking_and_json():
     ],
 )
 def test_user_errors_are_one_line_and_exit_2(args, fragments):
-    assert_user_error(run(*args), *fragments)
+    assert_user_error(run_here(*args), *fragments)
 
 
 def test_bad_csv_is_a_user_error(tmp_path):
     bad = tmp_path / "core.csv"
     bad.write_text("input_v,frequency_hz,df_reported,phase_lead_deg\n0.5,10,abc,3\n")
-    assert_user_error(run("fit", str(bad)), "core.csv", "df_reported")
+    assert_user_error(run("fit", str(bad)), "core.csv", "df_reported")  # the console script
     empty = tmp_path / "empty.csv"
     empty.write_text("")
-    assert_user_error(run("audit", str(empty)), "empty.csv")
+    assert_user_error(run_here("audit", str(empty)), "empty.csv")
 
 
 def test_user_csv_fits(tmp_path):
@@ -190,7 +207,7 @@ def test_limit_cycle_command_prints_table_json_and_plot(tmp_path):
     ],
 )
 def test_limit_cycle_user_errors(args, fragments):
-    assert_user_error(run(*args), *fragments)
+    assert_user_error(run_here(*args), *fragments)
 
 
 # ------------------------------------------------------------------ batch fitting
@@ -275,7 +292,7 @@ def test_fit_batch_checks_every_file_before_fitting(tmp_path):
     ],
 )
 def test_bad_option_values_are_one_line_and_exit_2(args, fragments):
-    assert_user_error(run(*args), *fragments)
+    assert_user_error(run_here(*args), *fragments)
 
 
 def test_report_out_must_be_a_usable_folder(tmp_path):

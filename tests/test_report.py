@@ -420,6 +420,12 @@ def test_approximate_chain_refit_starts_at_the_exact_optimum():
     )
     assert approx.info["starts_chi2"][0] == pytest.approx(alone.info["starts_chi2"][0], rel=1e-12)
     assert approx.metrics["chi2"] <= alone.metrics["chi2"] + 1e-9
+    # --quick: the exact optimum only, which is that polish exactly
+    assert ReportSettings.for_run(quick=True).approximate_screen == 0
+    assert ReportSettings.for_run().approximate_screen == 1
+    nearest = _job_approx(exact, 0, "winding", 0)
+    assert nearest.info["n_starts"] == 1
+    assert nearest.metrics["chi2"] == alone.metrics["chi2"]
 
 
 def test_settings_line_states_the_mcmc_and_cv_that_ran():
@@ -443,3 +449,16 @@ def test_settings_line_states_the_mcmc_and_cv_that_ran():
     )
     line = next(i for i in items if i.startswith("least squares"))
     assert "no MCMC" in line and "2 starts per fold" in line
+
+
+def test_settings_line_names_the_laws_with_more_starts():
+    settings = json.loads(COMMITTED.read_text())["settings"]
+    models = [{"name": "cubic_hc", "start_multiple": 4}, {"name": "rayleigh", "start_multiple": 1}]
+    res = {"settings": settings, "timing": {}, "fitdf_version": "x", "seed": 0, "models": models}
+    (_, items), *_ = outline._settings_text(res)
+    line = next(i for i in items if i.startswith("least squares"))
+    n = settings["n_starts"]
+    assert f"{n} starts for every model and block ({4 * n} for `cubic_hc`" in line
+    assert "rayleigh" not in line
+    (_, items), *_ = outline._settings_text({**res, "models": models[1:]})
+    assert "(" not in next(i for i in items if i.startswith("least squares")).split(";")[0]

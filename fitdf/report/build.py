@@ -158,6 +158,9 @@ class ReportSettings:
         A second chain every model is also fitted through by least squares, to show how
         far an approximation (``winding``: sinusoidal current) moves the ranking, the
         predictions and the fitted constants; None skips it.
+    approximate_screen : int
+        Starts from the usual screen that refit adds to the exact chain's optimum (0: the
+        nearest optimum of the approximation only; ``--quick``).
     """
 
     models: tuple | None = None
@@ -180,6 +183,7 @@ class ReportSettings:
     scheduler: str | None = None
     chain: str = DEFAULT_CHAIN
     approximate_chain: str | None = "winding"
+    approximate_screen: int = 1
 
     @classmethod
     def for_run(
@@ -187,14 +191,22 @@ class ReportSettings:
     ) -> ReportSettings:
         """The default settings, or the quick ones: least squares only (the same models,
         starts and seeds, so the same rankings), no cross-validation, one model per
-        cross-impedance direction; every section is still produced. ``scheduler``: run
+        cross-impedance direction, the approximate chain's refits polished from the exact
+        optimum only; every section is still produced. ``scheduler``: run
         on that Dask cluster (see :class:`ReportSettings`)."""
         methods = tuple(methods)
         bad = set(methods) - {"lsq", "mcmc"}
         if bad or "lsq" not in methods:
             raise OptionError(f"methods must be ('lsq',) or ('lsq', 'mcmc'), got {methods}")
         if quick:
-            return cls(methods=("lsq",), mcmc_top=0, cv_top=0, cross_top=1, scheduler=scheduler)
+            return cls(
+                methods=("lsq",),
+                mcmc_top=0,
+                cv_top=0,
+                cross_top=1,
+                approximate_screen=0,
+                scheduler=scheduler,
+            )
         return cls(
             methods=methods,
             mcmc_top=cls.mcmc_top if "mcmc" in methods else 0,
@@ -232,13 +244,14 @@ def _job_mcmc(lsq, seed, n_steps, n_walkers, max_steps=None, extend_steps=None):
     )
 
 
-def _job_approx(lsq, seed, chain):
+def _job_approx(lsq, seed, chain, also_screen=1):
     """``lsq``'s law and data refitted through the approximate ``chain``, polished from the
-    exact chain's optimum (both chains share their parameters) and from the best point of
-    the usual screen: the approximation's nearest optimum, and a look elsewhere."""
+    exact chain's optimum (both chains share their parameters) and from the best
+    ``also_screen`` points of the usual screen: the approximation's nearest optimum, and a
+    look elsewhere."""
     p = lsq.problem
     problem = FitProblem(p.data, p.model, chain, p.noise, p.fixed, p.geometry)
-    return with_material(fit_lsq(problem, seed=seed, starts=lsq.internal, also_screen=1))
+    return with_material(fit_lsq(problem, seed=seed, starts=lsq.internal, also_screen=also_screen))
 
 
 def _job_cv(lsq, seed, n_starts):
@@ -360,7 +373,12 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
             for m in models:
                 jobs[("approx", b.key, m)] = (
                     _job_approx,
-                    (lsq[(b.key, m)], seed, settings.approximate_chain),
+                    (
+                        lsq[(b.key, m)],
+                        seed,
+                        settings.approximate_chain,
+                        settings.approximate_screen,
+                    ),
                 )
     for core, train, test, train_key, _ in settings.cross:
         for m in _top(ranked.get(train_key, models), settings.cross_top):

@@ -26,6 +26,16 @@ _THESIS = "The thesis's computed curves (Graphs 4.1-4.7)"
 _SMALL = "Small signals: a DC-bias hypothesis"
 
 
+def _more_starts(models, n_starts) -> str:
+    """`` (24 for `cubic_hc`)``: the laws whose ``start_multiple`` gives them more starts."""
+    more = [
+        f"{n_starts * m['start_multiple']} for `{m['name']}`"
+        for m in models
+        if m.get("start_multiple", 1) > 1
+    ]
+    return f" ({', '.join(more)}, whose chi-square has kinks)" if more else ""
+
+
 def _settings_text(res) -> list:
     s, t = res["settings"], res["timing"]
     mcmc = (
@@ -73,7 +83,9 @@ def _settings_text(res) -> list:
                     if s.get("approximate_chain")
                     else ""
                 ),
-                f"least squares with {s['n_starts']} starts for every model and block; {mcmc}; {cv}",
+                f"least squares with {s['n_starts']} starts for every model and block"
+                + _more_starts(res.get("models", []), s["n_starts"])
+                + f"; {mcmc}; {cv}",
                 f"run time {t.get('total_s', 0):.0f} s with {t.get('workers', 1)} worker process(es) "
                 f"(least squares {t.get('least_squares_s', 0):.0f} s, MCMC/CV/cross-impedance/limit cycles "
                 f"{t.get('mcmc_cv_cross_limit_s', 0):.0f} s, figures {t.get('figures_s', 0):.0f} s)",
