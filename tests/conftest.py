@@ -1,10 +1,13 @@
-"""One tiny report for the three test files that read it, built once per run.
+"""One tiny report for the three test files that read it, built once per run; the kernels compiled first.
 
 test_report.py, test_report_browser.py and test_json_schemas.py all check a freshly
 generated report (its files, its page in a browser, its results.json against the schema).
 The ``tiny_report`` fixture builds it once per process, and under pytest-xdist
 (``--dist loadfile``, pyproject.toml) the three files are one work unit, so they run in the
 same process and the report is built once per run.
+
+On a fresh install the numba kernels are compiled once, before the test processes start
+(``pytest_configure``).
 """
 
 from __future__ import annotations
@@ -12,6 +15,40 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
+
+def _numba_cache_is_cold() -> bool:
+    """No compiled kernel of fitdf on disk yet (a fresh install or checkout)."""
+    import importlib.util
+    import os
+
+    folder = os.environ.get("NUMBA_CACHE_DIR")
+    root = Path(folder) if folder else Path(importlib.util.find_spec("fitdf").origin).parent
+    return not any(root.rglob("*.nbi"))
+
+
+def _compile_the_kernels() -> None:
+    """Every law through every chain once, on a few rows: numba compiles each kernel and
+    writes it to its cache (``cache=True``)."""
+    from fitdf.inference.api import resolve_data
+    from fitdf.inference.problem import FitProblem
+    from fitdf.models import model_names
+
+    rows = resolve_data("B.1", "default", None)
+    for chain in ("voltage", "winding", "direct"):
+        for law in model_names():
+            problem = FitProblem(rows, law, chain)
+            problem.objective_residuals(problem.start_internal())
+
+
+def pytest_configure(config):
+    """On a fresh install, compile the numba kernels once before the test processes start:
+    otherwise both pytest-xdist workers, and the command-line and pool processes the tests
+    start before a kernel's cache is written, each compile it (~25 s a process, measured)."""
+    if hasattr(config, "workerinput") or not _numba_cache_is_cold():
+        return
+    _compile_the_kernels()
+
 
 #: Test files run in one pytest-xdist process (they share the session fixture ``tiny_report``).
 TINY_REPORT_FILES = ("test_report.py", "test_report_browser.py", "test_json_schemas.py")
