@@ -147,6 +147,35 @@ def chain_pattern(repeats):
             f"{label:34s} {times[0] * 1e3:8.2f} ms {times[1] * 1e3:8.2f} ms {times[0] / times[1]:6.2f}"
         )
     cached(True)
+    rough_coarse_stage(problem, repeats)
+
+
+def rough_coarse_stage(problem, repeats):
+    """One ``voltage`` predict at the report's Permalloy fit with the coarse stage and the
+    guess on the rough branch (the default) and on the exact branch, interleaved."""
+    lam, a, k, c, zeta, r_w = REPORT_FITS["permalloy"][1]
+    values = dict(lambda_s=lam, a=a, k=k, c=c, zeta=zeta, r_winding=r_w)
+    values.update({n: 1.0 for n in problem.names if n.startswith("gain")})
+    point = problem.to_internal(values)
+    rough = JilesAtherton.__dict__["rough_branch"]
+
+    def predict():
+        STEADY_CACHE.clear()
+        return problem.predict(point)
+
+    times, dfs = {}, {}
+    for label in ("exact", "rough", "exact", "rough"):
+        if label == "exact":
+            JilesAtherton.rough_branch = JilesAtherton.__dict__["ascending_branch"]
+        times.setdefault(label, []).append(median_time(predict, repeats))
+        dfs[label] = predict()
+        JilesAtherton.rough_branch = rough
+    exact_t, rough_t = (float(np.median(times[x])) for x in ("exact", "rough"))
+    print(
+        f"{'voltage predict, coarse stage on':34s} {exact_t * 1e3:8.2f} ms exact branch "
+        f"{rough_t * 1e3:8.2f} ms rough branch {exact_t / rough_t:6.2f}x; "
+        f"max |dDF| {np.abs(dfs['exact'] - dfs['rough']).max():.1e}"
+    )
 
 
 def grids(n):

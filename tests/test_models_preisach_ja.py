@@ -10,6 +10,7 @@ from scipy.special import ndtr
 from scipy.stats import multivariate_normal
 
 from fitdf.models._bvn import bvn
+from fitdf.models._ja_integrate import _COARSE_NMIN, _COARSE_TOL, _NMIN, _TOL
 from fitdf.models._preisach_everett import _bvn, _preisach_branch_reference
 from fitdf.models.jiles_atherton import (
     JA_1986,
@@ -42,6 +43,9 @@ PREISACH_SETS = {
     "interaction": dict(lambda_s=0.01, i_c=2e-4, sigma_c=2.0, i_i=3e-3, l_rev=30.0, f_rev=0.6),
 }
 #: Default, square (zeta = 0.9), avalanche (mean-field folds, jumps in the loop).
+#: The exact and the rough (coarse-stage) tabulations of the steady JA loop.
+_TABULATIONS = ((_TOL, _NMIN), (_COARSE_TOL, _COARSE_NMIN))
+
 JA_SETS = {
     "default": dict(lambda_s=0.03, a=1e-3, k=1e-3, c=0.2, zeta=0.5),
     "square": dict(lambda_s=0.03, a=2e-4, k=1e-3, c=0.05, zeta=0.9),
@@ -475,6 +479,12 @@ def test_ja_steady_loop_is_the_limit_cycle_from_demagnetised(name, A):
     # the default step control (_TOL = 1e-7 lambda_s per step) gives up to ~4e-7 lambda_s
     assert np.max(np.abs(asc - up[1])) < 1e-6 * th["lambda_s"]
     assert np.max(np.abs(desc - down[1])) < 1e-6 * th["lambda_s"]
+    # the rough branch (the voltage chain's coarse stage): one coarse secant stage on the
+    # coarse tabulation, up to ~4e-5 lambda_s here, on fewer nodes than the exact branch
+    rough = JilesAtherton.rough_branch(up[0], A, **th)
+    assert np.max(np.abs(rough - up[1])) < 1e-4 * th["lambda_s"]
+    nodes = [steady_loop(A, **th, tol=tol, n_min=n, n_out=1)[0].size for tol, n in _TABULATIONS]
+    assert nodes[1] < nodes[0] / 2
 
 
 def test_ja_published_parameter_set():

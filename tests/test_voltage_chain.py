@@ -406,6 +406,28 @@ def test_warm_start_gives_the_same_answer():
     assert np.abs(again - cold.df).max() < 1e-3
 
 
+def test_rough_branch_steers_the_search_but_does_not_set_the_answer():
+    """The coarse stage and the guess read the law's rough branch, the fine stage the exact one:
+    a rough branch 20 % off (a coarse root ~10-20 % off) moves the DF only within the fine
+    stage's tolerance, and the reference still holds it."""
+    base = get_model("rayleigh")
+
+    class Skewed(base):
+        @classmethod
+        def rough_branch(cls, x, amplitude, frequency=0.0, **theta):
+            return 1.2 * base.ascending_branch(x, amplitude, frequency, **theta)
+
+    theta, V, f, Rs = PARAMS["rayleigh"], *(np.array(c) for c in zip(*POINTS))
+    exact = VoltageChain.operating_point(base, V, f, Rs, theta, [R_WINDING, 1.0])
+    skewed = VoltageChain.operating_point(Skewed, V, f, Rs, theta, [R_WINDING, 1.0])
+    assert base.rough_branch(0.01, 0.02, **dict(zip(base.param_names(), theta))) == (
+        base.ascending_branch(0.01, 0.02, **dict(zip(base.param_names(), theta)))
+    )  # the default rough branch is the exact one
+    assert not np.array_equal(skewed.df, exact.df)  # the search did read the rough branch
+    np.testing.assert_allclose(skewed.current, exact.current, rtol=4e-3)
+    assert np.abs(skewed.df - exact.df).max() < 4e-4  # the chain's own accuracy is ~2e-4
+
+
 # ---------------------------------------------------------------- against the winding chain
 def test_agrees_with_winding_where_the_current_is_sinusoidal():
     # large R, an unsaturated linear core (no width, saturation far away): the current is a

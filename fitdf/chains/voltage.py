@@ -62,7 +62,8 @@ inside the step, so ``i_peak`` stays second-order accurate when the peak is such
 
 *Root.* Two stages, vectorised over the points still unconverged, each step of the
 search compiled per point (:func:`_search`): (1) coarse tables (``coarse_nodes``
-uniform, ``coarse_steps``) from a guess -- ``initial_current``, or the amplitude at which
+uniform, ``coarse_steps``, the law's rough branch: for Jiles-Atherton a coarser steady
+loop, the exact branch for the others) from a guess -- ``initial_current``, or the amplitude at which
 a sinusoidal flux of the loop tip's size would need ``V``, ``hypot(R a, w B(a; a)) = V``
 -- to ``coarse_tol``; (2) fine tables on nodes placed at the coarse root, secant steps
 started with the coarse slope (at most 1 % each until bracketed), and the DF
@@ -156,17 +157,19 @@ class _Points:
         self.w = 2.0 * np.pi * f
         self.threads = threads
 
-    def branch(self, idx, x, a):
-        """``B(x; a)`` at the points ``idx``; ``x`` is ``(m, K)``, ``a`` is ``(m,)``."""
+    def branch(self, idx, x, a, rough=False):
+        """``B(x; a)`` at the points ``idx``; ``x`` is ``(m, K)``, ``a`` is ``(m,)``; with
+        ``rough``, the law's :meth:`~fitdf.models.base.HysteresisModel.rough_branch`."""
         kw = {k: v[idx, None] for k, v in self.kw.items()}
-        B = self.model.ascending_branch(x, a[:, None], self.f[idx, None], **kw)
+        law = self.model.rough_branch if rough else self.model.ascending_branch
+        B = law(x, a[:, None], self.f[idx, None], **kw)
         return np.ascontiguousarray(np.broadcast_to(B, x.shape), dtype=float)
 
-    def run(self, idx, a, u, steps, refine_factor):
+    def run(self, idx, a, u, steps, refine_factor, rough=False):
         """Kernel on tables at nodes ``u`` (``(m, M)`` or ``(M,)``): ``(G, DF without gain, B)``."""
         u = np.broadcast_to(u, (idx.size, np.shape(u)[-1]))
         x = np.ascontiguousarray(a[:, None] * u)
-        B = self.branch(idx, x, a)
+        B = self.branch(idx, x, a, rough)
         V, R = self.V[idx], self.R[idx]
         phi0 = -np.arcsin(np.minimum(R * a / V, 1.0))
         out = np.empty((idx.size, N_OUT))
@@ -247,7 +250,7 @@ def _guess(pts, idx, hi):
     log-interpolated. The tips depend only on the law's parameters (and on ``f`` for a
     frequency-dependent law), not on ``V`` or ``R``, so they are evaluated once per distinct
     parameter row on one lattice rather than per point (for Jiles-Atherton every tip is a
-    steady-loop solve). The lattice is absolute, so a point's guess does not depend on the
+    steady-loop solve, so the tips are the law's rough branch). The lattice is absolute, so a point's guess does not depend on the
     other points of the call.
     """
     lo = np.floor(2.0 * np.log10(np.min(hi) * 1e-24))
@@ -261,13 +264,13 @@ def _guess(pts, idx, hi):
     rep = idx[first]
     kw = {name: v[rep, None] for name, v in pts.kw.items()}
     a = np.broadcast_to(grid, (rep.size, grid.size))
-    tips = np.broadcast_to(pts.model.ascending_branch(a, a, pts.f[rep, None], **kw), a.shape)
+    tips = np.broadcast_to(pts.model.rough_branch(a, a, pts.f[rep, None], **kw), a.shape)
     tip = tips[np.ravel(owner)]
     h = np.hypot(pts.R[idx, None] * grid, pts.w[idx, None] * tip) - pts.V[idx, None]
     # ... and ``V/R`` itself, the end of every point's range (exact for a dead zone, where
     # the current is V/R): the amplitudes in play are the lattice's in [V/R 1e-24, V/R), then V/R
     kw_own = {name: v[idx, None] for name, v in pts.kw.items()}
-    own = pts.model.ascending_branch(hi[:, None], hi[:, None], pts.f[idx, None], **kw_own)
+    own = pts.model.rough_branch(hi[:, None], hi[:, None], pts.f[idx, None], **kw_own)
     h_hi = np.hypot(pts.R[idx] * hi, pts.w[idx] * np.broadcast_to(own, (idx.size, 1))[:, 0])
     a = np.concatenate([np.broadcast_to(grid, h.shape), hi[:, None]], axis=1)
     h = np.concatenate([h, (h_hi - pts.V[idx])[:, None]], axis=1)
@@ -402,7 +405,7 @@ def _solve(model, V, f, R, kw, initial, st: VoltageSettings):
     u_c = np.linspace(-1.0, 1.0, st.coarse_nodes)
 
     def coarse(sub, x):
-        g, d, _ = pts.run(live[sub], x, u_c, st.coarse_steps, st.refine_factor)
+        g, d, _ = pts.run(live[sub], x, u_c, st.coarse_steps, st.refine_factor, rough=True)
         return g, d
 
     # (a coarse root fooled by a jump of G only costs the fine stage more steps)

@@ -21,6 +21,10 @@ __all__ = ["langevin", "coupling", "anhysteretic"]
 _TOL, _NMIN = 1e-7, 24
 _COARSE_TOL, _COARSE_NMIN = 1e-5, 8
 _CAP = 1 << 13
+# Closure |M_top + M_b| of the secant stages, in lambda_s. The coarse stage only brings the
+# fine one within its reach (the two tabulations differ by ~1e-5 lambda_s anyway); the fine
+# closure is 100x below the fine tabulation's own error (tol 1e-7 per step).
+_COARSE_CLOSURE, _CLOSURE = 1e-6, 1e-9
 
 
 @numba.njit(cache=True)
@@ -289,8 +293,33 @@ def _solve(A, lam, a, k, c, kap, x, slope, tol, nmin, tol_root, record, rec_e, r
 
 @numba.njit(cache=True)
 def _steady(A, lam, a, k, c, kap, tol, nmin, rec_e, rec_m, rec_d):
-    """Nodes of the converged ascending branch; returns their number (-1: not found)."""
+    """Nodes of the converged ascending branch; returns their number (-1: not found).
+
+    A secant stage on the coarse tabulation (``_COARSE_TOL``, ``_COARSE_NMIN``) brings
+    ``M_b`` close; a second one on the asked tabulation records the branch. Asked for a
+    tabulation no finer than the coarse one (``tol >= _COARSE_TOL``), the first stage
+    records and is the only one: the rough branch of a root search's first stage.
+    """
     L, L1 = _langevin2(A / a)
+    if tol >= _COARSE_TOL:
+        x, slope, n = _solve(
+            A,
+            lam,
+            a,
+            k,
+            c,
+            kap,
+            -lam * L,
+            1.0,
+            tol,
+            nmin,
+            _COARSE_CLOSURE * lam,
+            True,
+            rec_e,
+            rec_m,
+            rec_d,
+        )
+        return n if n > 1 else -1
     x, slope, n = _solve(
         A,
         lam,
@@ -302,13 +331,13 @@ def _steady(A, lam, a, k, c, kap, tol, nmin, rec_e, rec_m, rec_d):
         1.0,
         _COARSE_TOL,
         _COARSE_NMIN,
-        1e-9 * lam,
+        _COARSE_CLOSURE * lam,
         False,
         rec_e,
         rec_m,
         rec_d,
     )
     x, slope, n = _solve(
-        A, lam, a, k, c, kap, x, slope, tol, nmin, 1e-13 * lam, True, rec_e, rec_m, rec_d
+        A, lam, a, k, c, kap, x, slope, tol, nmin, _CLOSURE * lam, True, rec_e, rec_m, rec_d
     )
     return n if n > 1 else -1

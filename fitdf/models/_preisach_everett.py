@@ -2,8 +2,8 @@
 
 The Gaussian relay density of :mod:`fitdf.models.preisach` in closed form: the Everett
 function as differences of bivariate normal distribution functions (Owen's ``T``), its
-``alpha`` derivative, the steady rising branch (a compiled loop with Genz's bivariate normal,
-:mod:`fitdf.models._bvn`; the NumPy/Owen's-``T`` form is its reference), the reversible
+``alpha`` derivative, the steady rising branch (a compiled loop, two of Genz's bivariate
+normals per point, :mod:`fitdf.models._bvn`; the NumPy/Owen's-``T`` form is its reference), the reversible
 arctangent and the Rayleigh constant of the low-amplitude limit; and the fixed graded
 Gauss-Legendre rule (numba) for the relay part of ``N(A)``. The derivations are in the docstring of :mod:`fitdf.models.preisach`.
 """
@@ -121,23 +121,28 @@ def _preisach_branch_reference(x, amplitude, *, i_c, sigma_c, i_i):
 
 
 @numba.njit(cache=True)
-def _everett_point(alpha, A, m, s, S, r, sq, x0, px0, kb, pkb, Z, b4, tab, n):
-    """Scalar :func:`everett` at ``(alpha, -A)``, given the terms that do not depend on ``alpha``.
+def _everett_point(alpha, A, m, S, r, sq, tab, n, r2, sq2, tab2, n2, x0, px0, kA, pkA, low, Z):
+    """Scalar :func:`everett` at ``(alpha, -A)``: two bivariate normals, given the row's terms.
 
-    ``x0 = -m/s``, ``kb = (m - A)/S``, ``px0, pkb`` their ``Phi``, ``b4 = B(x0, kb; -r)``.
+    ``E(alpha, -A) = Int_{-A}^{alpha} dE/dalpha`` (:func:`everett_slope`) in ``u = (alpha - m)/S``
+    is ``(1/Z) Int phi(u) [Phi(c2 u + d2) - Phi(c3 u + d3)] du`` with ``c2 = (t^2 - s^2)/(2 s t)``,
+    ``d2 = S (A - m)/(2 s t)``, ``c3 = -s/t``, ``d3 = -m S/(s t)``; and
+    ``Int_{-inf}^{h} phi(u) Phi(c u + d) du = B(h, d / sqrt(1 + c^2); -c / sqrt(1 + c^2))``, so
+
+        E = ([B(u, kA; 2 r^2 - 1) - B(u, x0; r)] - low) / Z,
+
+    ``kA = (A - m)/S``, ``x0 = -m/s``, ``low`` the bracket at ``u(-A)``. Given: ``sq2 =
+    sqrt(1 - r2^2) = 2 r sq`` (exact as ``r -> 0`` or ``1``), the node tables of both
+    correlations, ``px0, pkA`` the ``Phi`` of ``x0, kA``.
     """
     if not alpha > -A:
         return 0.0
-    w = 0.5 * (alpha + A)
-    xw = (w - m) / s
-    ka = (alpha - m) / S
-    pw = _phi(xw)
-    pa = _phi(ka)
+    u = (alpha - m) / S
+    pu = _phi(u)
     e = (
-        bvn_lower_phi(xw, ka, r, sq, pw, pa, tab, n)
-        - bvn_lower_phi(x0, ka, r, sq, px0, pa, tab, n)
-        - bvn_lower_phi(xw, kb, -r, sq, pw, pkb, tab, n)
-        + b4
+        bvn_lower_phi(u, kA, r2, sq2, pu, pkA, tab2, n2)
+        - bvn_lower_phi(u, x0, r, sq, pu, px0, tab, n)
+        - low
     ) / Z
     return min(max(e, 0.0), 1.0)
 
@@ -146,14 +151,15 @@ def _everett_point(alpha, A, m, s, S, r, sq, x0, px0, kb, pkb, Z, b4, tab, n):
 def _branch_loop(x, amplitude, i_c, sigma_c, i_i, out):
     """``out = -E(A, -A) + 2 E(x, -A)`` elementwise over flat arrays (one fused loop).
 
-    The terms that do not depend on ``x`` (the node table of ``r``, ``E(A, -A)``,
-    ``B(-m/s, (m - A)/S; -r)`` and two ``Phi``) are kept while ``A`` and the density are
-    those of the previous element.
+    The terms that do not depend on ``x`` (the node tables of the two correlations,
+    ``E(A, -A)``, the bracket at ``-A`` and two ``Phi``) are kept while ``A`` and the density
+    are those of the previous element.
     """
     tab = np.empty(BVN_TABLE_SHAPE)
-    n = 0
+    tab2 = np.empty(BVN_TABLE_SHAPE)
+    n = n2 = 0
     key_a = key_m = key_sc = key_t = key_r = key_sq = np.nan
-    m = s = S = r = sq = x0 = px0 = kb = pkb = Z = b4 = tip = np.nan
+    m = S = r = sq = r2 = sq2 = x0 = px0 = kA = pkA = low = Z = tip = np.nan
     for i in range(x.size):
         A = abs(amplitude[i])
         if not (A == key_a and i_c[i] == key_m and sigma_c[i] == key_sc and i_i[i] == key_t):
@@ -164,34 +170,46 @@ def _branch_loop(x, amplitude, i_c, sigma_c, i_i, out):
             r = s / S
             sq = key_t / S  # sqrt(1 - r^2), accurate as r -> 1
             if not (r == key_r and sq == key_sq):
+                r2 = (r - sq) * (r + sq)  # 2 r^2 - 1, the correlation of the first term
+                sq2 = 2.0 * r * sq
                 n = bvn_setup(r, sq, tab)
+                n2 = bvn_setup(r2, sq2, tab2)
                 key_r, key_sq = r, sq
             x0 = -m / s
             px0 = _phi(x0)
-            kb = (m - A) / S
-            pkb = _phi(kb)
+            kA = (A - m) / S
+            pkA = _phi(kA)
             Z = _phi(m / s)
-            b4 = bvn_lower_phi(x0, kb, -r, sq, px0, pkb, tab, n)
-            tip = _everett_point(A, A, m, s, S, r, sq, x0, px0, kb, pkb, Z, b4, tab, n)
+            u_low = (-A - m) / S
+            p_low = _phi(u_low)
+            low = bvn_lower_phi(u_low, kA, r2, sq2, p_low, pkA, tab2, n2) - bvn_lower_phi(
+                u_low, x0, r, sq, p_low, px0, tab, n
+            )
+            tip = _everett_point(
+                A, A, m, S, r, sq, tab, n, r2, sq2, tab2, n2, x0, px0, kA, pkA, low, Z
+            )
         xi = x[i]
         if xi == A:
             e = tip
         else:
-            e = _everett_point(xi, A, m, s, S, r, sq, x0, px0, kb, pkb, Z, b4, tab, n)
+            e = _everett_point(
+                xi, A, m, S, r, sq, tab, n, r2, sq2, tab2, n2, x0, px0, kA, pkA, low, Z
+            )
         out[i] = -tip + 2.0 * e
 
 
 def preisach_branch(x, amplitude, *, i_c, sigma_c, i_i):
     """Normalised rising branch ``P_up(x) = -E(A, -A) + 2 E(x, -A)`` of the steady loop, in ``[-1, 1]``.
 
-    All arguments broadcast. One compiled loop over the elements (numba), the bivariate
-    normal distribution function by Genz's algorithm (:mod:`fitdf.models._bvn`) in place of
-    the Owen's ``T`` form of :func:`everett`, with the same semantics (``E = 0`` for
+    All arguments broadcast. One compiled loop over the elements (numba): ``E(x, -A)`` as
+    the integral of its closed-form slope, two bivariate normal distribution functions per
+    point (:func:`_everett_point`; the three of :func:`everett` share less with the row)
+    by Genz's algorithm (:mod:`fitdf.models._bvn`), with the same semantics (``E = 0`` for
     ``alpha <= beta``, ``E(inf, -inf) = 1``, each ``E`` clipped to ``[0, 1]``). Against the
     defining 1-D integral: ~2e-15 over the whole parameter box. Against :func:`everett`:
     ~1e-14, except as ``r = s/S -> 1`` (``i_i << sigma_c i_c``), where the Owen's-``T`` form
     loses ~1e-16 / sqrt(1 - r^2) (and is NaN once ``r`` rounds to 1); this loop takes
-    ``sqrt(1 - r^2) = i_i / S`` directly and keeps its accuracy. 3-4x faster than
+    ``sqrt(1 - r^2) = i_i / S`` directly and keeps its accuracy. ~5x faster than
     :func:`everett` on the voltage chain's tables (benchmarks/README.md).
     """
     arrays = np.broadcast_arrays(

@@ -47,6 +47,14 @@ class HysteresisModel(Parametrized):
         raise NotImplementedError
 
     @classmethod
+    def rough_branch(cls, x, amplitude, frequency=0.0, **theta):
+        """:meth:`ascending_branch` to the accuracy a first, coarse search needs (~1e-4 of
+        the tip), where a law computes its loop numerically and a rough loop is cheaper (a
+        root search's coarse stage and initial guess; its fine stage uses the exact branch).
+        The exact branch by default."""
+        return cls.ascending_branch(x, amplitude, frequency, **theta)
+
+    @classmethod
     def describing_function(cls, amplitude, frequency=0.0, **theta):
         """Complex describing function ``N(A, f)``; broadcasts over all arguments."""
         return cls.numerical_describing_function(amplitude, frequency, **theta)
