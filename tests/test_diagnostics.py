@@ -377,6 +377,40 @@ def test_a_chain_too_slow_for_max_steps_is_given_up_early():
     assert fast.iteration / tau[0] >= MIN_STEPS_OVER_TAU
 
 
+class _SlowingSampler(_AR1Sampler):
+    """An AR(1) chain whose correlation rises to ``phi_late`` after ``switch`` steps: its
+    autocorrelation-time estimate grows while it runs."""
+
+    def __init__(self, phi, phi_late, switch, seed=0):
+        super().__init__(phi, seed)
+        self.phi_early, self.phi_late, self.switch = phi, phi_late, switch
+
+    def run_mcmc(self, state, n, **_):
+        self.phi = self.phi_late if self.iteration >= self.switch else self.phi_early
+        return super().run_mcmc(state, n)
+
+
+def test_an_extended_chain_keeps_going_while_50_autocorrelation_times_fit_in_the_extension():
+    """Past ``max_steps`` the chain stops only once 50 autocorrelation times would not fit in
+    ``extend_to``: an estimate that grows a little (here the chain itself slows down) keeps
+    it going towards convergence, where the rule "50 times within the steps run so far"
+    stopped it at the first uptick."""
+    kw = dict(extend_to=6000)
+    ticking = _SlowingSampler(phi=0.9, phi_late=0.97, switch=800, seed=0)
+    tau, given_up = mcmc._run_until_converged(ticking, None, 300, 800, 100, ["x"], False, **kw)
+    n = ticking.iteration
+    assert given_up is None and 800 < n < 6000 and _converged(ticking, tau)
+    # along the way the estimate rose past the steps run: the old rule would have stopped
+    trace = _SlowingSampler(phi=0.9, phi_late=0.97, switch=800, seed=0)
+    trace.run_mcmc(None, 300)
+    uptick = False
+    while trace.iteration < n:
+        trace.run_mcmc(None, 100)
+        t = mcmc._tau_range(mcmc.autocorr_time(trace.get_chain()), trace.iteration)[1]
+        uptick |= trace.iteration > 800 and MIN_STEPS_OVER_TAU * t > trace.iteration
+    assert uptick
+
+
 def _converged(sampler, tau):
     n = sampler.iteration
     d = mcmc.chain_diagnostics(sampler.get_chain()[mcmc._burn(tau, n) :], ["x"])

@@ -130,9 +130,10 @@ class ReportSettings:
         converged: :func:`fitdf.inference.mcmc.is_converged`) and walkers (None: twice the
         dimensions plus two, the fewest differential evolution allows).
     extend_steps : int or None
-        A chain 50 autocorrelation times long at ``max_steps`` that is short of R-hat or
-        ESS goes on up to this many steps (``fit_mcmc(extend_steps=...)``); the chains too
-        slow for ``max_steps`` still stop at it, or before.
+        A chain that reaches ``max_steps`` on course for 50 autocorrelation times but is
+        short of R-hat or ESS goes on up to this many steps, while 50 autocorrelation times
+        fit in them (``fit_mcmc(extend_steps=...)``); the chains too slow for ``max_steps``
+        still stop at it, or before.
     mcmc_skip : tuple of str
         Laws left out of the report's MCMC (the best laws *without* them get the chains):
         Jiles-Atherton through the exact chain costs 20-60 ms per parameter set, 5-10 times
