@@ -63,9 +63,9 @@ inside the step, so ``i_peak`` stays second-order accurate when the peak is such
 *Root.* Two stages, vectorised over the points still unconverged, each step of the
 search compiled per point (:func:`_search`): (1) coarse tables (``coarse_nodes``
 uniform, ``coarse_steps``, the law's rough branch: for Jiles-Atherton a coarser steady
-loop, the exact branch for the others) from a guess -- ``initial_current``, or the amplitude at which
-a sinusoidal flux of the loop tip's size would need ``V``, ``hypot(R a, w B(a; a)) = V``
--- to ``coarse_tol``; (2) fine tables on nodes placed at the coarse root, secant steps
+loop, the exact branch for the others) from a guess -- ``initial_current``, or the
+amplitude at which a sinusoidal flux of the loop tip's size would need ``V``,
+``hypot(R a, w B(a; a)) = V`` -- to ``coarse_tol``; (2) fine tables on nodes placed at the coarse root, secant steps
 started with the coarse slope (at most 1 % each until bracketed), and the DF
 interpolated linearly in ``I_p`` through the last pair at the secant root (its error is
 ``DF''/2`` times the distances to both points: accepted when the linear correction is at
@@ -250,8 +250,8 @@ def _guess(pts, idx, hi):
     log-interpolated. The tips depend only on the law's parameters (and on ``f`` for a
     frequency-dependent law), not on ``V`` or ``R``, so they are evaluated once per distinct
     parameter row on one lattice rather than per point (for Jiles-Atherton every tip is a
-    steady-loop solve, so the tips are the law's rough branch). The lattice is absolute, so a point's guess does not depend on the
-    other points of the call.
+    steady-loop solve, so the tips are the law's rough branch). The lattice is absolute, so
+    a point's guess does not depend on the other points of the call.
     """
     lo = np.floor(2.0 * np.log10(np.min(hi) * 1e-24))
     top = np.ceil(2.0 * np.log10(np.max(hi))) + 1.0
