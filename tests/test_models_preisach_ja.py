@@ -10,7 +10,7 @@ from scipy.special import ndtr
 from scipy.stats import multivariate_normal
 
 from fitdf.models._bvn import bvn
-from fitdf.models._ja_integrate import _COARSE_NMIN, _COARSE_TOL, _NMIN, _TOL
+from fitdf.models._ja_integrate import _CLOSURE, _COARSE_NMIN, _COARSE_TOL, _NMIN, _TOL
 from fitdf.models._preisach_everett import _bvn, _preisach_branch_reference
 from fitdf.models.jiles_atherton import (
     JA_1986,
@@ -464,7 +464,10 @@ def test_ja_fast_df_matches_referee(name):
     th = JA_SETS[name]
     N = JilesAtherton.describing_function(AMPS, **th)
     ref = JilesAtherton.numerical_describing_function(AMPS, n_points=2**15, **th)
-    np.testing.assert_allclose(N, ref, rtol=1e-8, atol=0)
+    # the fast rule integrates the ascending branch of a loop taken as closed, the referee
+    # the loop as sampled; the loop closes to _CLOSURE = 1e-9 lambda_s: up to 7.6e-7 apart
+    # on the avalanche set (1e-8 while the closure was 1e-13)
+    np.testing.assert_allclose(N, ref, rtol=2e-6, atol=0)
 
 
 @pytest.mark.parametrize("name, A", [("default", 2e-3), ("square", 1.5e-3), ("ja1986", 3000.0)])
@@ -526,7 +529,8 @@ def test_ja_loop_properties(name):
     for A in (1e-4, 1e-3, 5e-3, 5e-2):
         x, y = steady_loop(A, n_out=64, **th)
         assert x[0] == -A and x[-1] == A
-        assert y[-1] == pytest.approx(-y[0], abs=1e-13 * lam)  # symmetric loop
+        # symmetric loop: closed to the fine secant's tolerance (_CLOSURE lambda_s)
+        assert y[-1] == pytest.approx(-y[0], abs=_CLOSURE * lam)
         assert np.all(np.diff(x) > 0) and np.all(np.diff(y) >= 0)  # dM/dH >= 0, no folds
         # dM/dH <= (lambda_s / 3a) / (1 - zeta): no avalanche for zeta < 1
         slope = np.diff(y) / np.diff(x)
