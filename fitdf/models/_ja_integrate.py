@@ -5,6 +5,10 @@ anhysteretic (vectorised and compiled), the half cycle integrated in the effecti
 (cubic-Hermite ``M_an``, exact relaxation of ``M_irr``, adaptive steps) recording the
 branch nodes, and the safeguarded secant iteration for the symmetric steady loop. The
 formulation is in the docstring of :mod:`fitdf.models.jiles_atherton`.
+
+numba caches a compiled caller (``cache=True``) by the caller's own source file: after
+editing this module, delete ``fitdf/models/__pycache__/*.nb[ic]``, or the callers in
+:mod:`fitdf.models._ja_branch` keep the old kernels.
 """
 
 from __future__ import annotations
