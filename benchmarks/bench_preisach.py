@@ -23,12 +23,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np
+from bench_voltage import median_time  # (benchmarks/ is the script's folder)
 
 from fitdf.inference.api import resolve_data, resolve_geometry
 from fitdf.inference.problem import FitProblem
@@ -62,16 +62,6 @@ BRANCHES = {
     "NumPy/Owen's T": everett_module._preisach_branch_reference,
     "compiled": everett_module.preisach_branch,
 }
-
-
-def median_time(fn, repeats):
-    fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def use(name):
