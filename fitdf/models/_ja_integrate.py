@@ -305,25 +305,7 @@ def _steady(A, lam, a, k, c, kap, tol, nmin, rec_e, rec_m, rec_d):
     records and is the only one: the rough branch of a root search's first stage.
     """
     L, L1 = _langevin2(A / a)
-    if tol >= _COARSE_TOL:
-        x, slope, n = _solve(
-            A,
-            lam,
-            a,
-            k,
-            c,
-            kap,
-            -lam * L,
-            1.0,
-            tol,
-            nmin,
-            _COARSE_CLOSURE * lam,
-            True,
-            rec_e,
-            rec_m,
-            rec_d,
-        )
-        return n if n > 1 else -1
+    one_stage = tol >= _COARSE_TOL
     x, slope, n = _solve(
         A,
         lam,
@@ -333,15 +315,16 @@ def _steady(A, lam, a, k, c, kap, tol, nmin, rec_e, rec_m, rec_d):
         kap,
         -lam * L,
         1.0,
-        _COARSE_TOL,
-        _COARSE_NMIN,
+        tol if one_stage else _COARSE_TOL,
+        nmin if one_stage else _COARSE_NMIN,
         _COARSE_CLOSURE * lam,
-        False,
+        one_stage,
         rec_e,
         rec_m,
         rec_d,
     )
-    x, slope, n = _solve(
-        A, lam, a, k, c, kap, x, slope, tol, nmin, _CLOSURE * lam, True, rec_e, rec_m, rec_d
-    )
+    if not one_stage:
+        x, slope, n = _solve(
+            A, lam, a, k, c, kap, x, slope, tol, nmin, _CLOSURE * lam, True, rec_e, rec_m, rec_d
+        )
     return n if n > 1 else -1
