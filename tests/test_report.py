@@ -291,7 +291,8 @@ def test_interrupted_swap_restores_the_old_report(tmp_path, monkeypatch):
 
 def test_same_seed_same_numbers(tmp_path, stub_figures):
     # every random stage (the starts, the pilot rounds and chain, the CV folds), short:
-    # the same seed must give the same numbers whatever the length of the chain
+    # the same seed must give the same numbers whatever the length of the chain (not
+    # extended: past max_steps the report's default went on for ~8 s a run)
     settings = ReportSettings(
         models=("proportional_width",),
         blocks=("B.1",),
@@ -299,6 +300,7 @@ def test_same_seed_same_numbers(tmp_path, stub_figures):
         mcmc_top=1,
         n_steps=20,
         max_steps=20,
+        extend_steps=None,
         n_walkers=16,
         cv_top=1,
         cv_starts=1,

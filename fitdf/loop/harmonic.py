@@ -10,7 +10,7 @@ when the first harmonic balances::
 :func:`limit_cycles` finds *every* solution inside a box of amplitudes and
 frequencies: ``F`` on a coarse log-spaced grid (one vectorised evaluation of ``N``),
 candidate cells where both ``Re F`` and ``Im F`` change sign or ``|F|`` has a small
-local minimum, refinement of each candidate with :func:`scipy.optimize.least_squares`
+local minimum, refinement of every candidate at once (Levenberg-Marquardt, batched evaluations of ``N``)
 on ``(ln A, ln omega)`` of ``[ln|G N|, arg(-G N)]``, and de-duplication. The loop gain
 ``K`` (``G = K G0``) is swept, and the gain below which no solution exists is found
 (:func:`critical_gain`).
@@ -45,7 +45,6 @@ the intersections with the plant locus are there (Graphs 5.21, 5.22).
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from fitdf.errors import OptionError
 from fitdf.loop.assumptions import plant_warnings
@@ -81,6 +80,20 @@ DEDUP_TOL = 1e-6
 #: 1e-4 is far above that and far below the scale on which ``F`` bends; the roots still
 #: converge to ~1e-15 (the Jacobian only steers, the residual is exact).
 REFINE_DIFF_STEP = 1e-4
+#: Iterations of the refinement at most (each: a Jacobian and one or more trial steps).
+REFINE_MAX_ITER = 100
+#: Trial steps per iteration (``lambda`` grows 4x between them) before a start is taken as
+#: converged as far as ``N`` allows.
+REFINE_TRIALS = 12
+#: Step of Loeb's central differences in ``ln A`` and ``ln omega``: far above the exact
+#: chain's jitter (~1e-5 in ``1 + G N`` between points 1e-8 apart), far below the scale on
+#: which ``F`` bends. B.1 proportional_width in the thesis plant (time scale 2.5, 12 gains
+#: 20-300): the sine of the crossing angle as a function of the gain is smooth at 1e-2 and
+#: 3e-2 (within 1e-3 of each other); at 1e-3 it still scatters by 0.04, at 1e-4 by 0.2, and
+#: at the former 1e-6 it called one cycle unstable (-0.20) between stable ones (0.94-0.98).
+#: For a callable the sine moves by ~1e-4 from its limit (the relay with hysteresis of
+#: :func:`limit_cycles`'s example: 5e-5).
+LOEB_DIFF_STEP = 1e-2
 
 
 # ---------------------------------------------------------------- the solver
@@ -128,78 +141,175 @@ def _candidates(F, max_candidates):
     return pts
 
 
-def _log_residual(H):
-    """``[ln|H|, arg(-H)]``: zero exactly at ``H = -1``; finite everywhere."""
-    if not np.isfinite(H) or H == 0:
-        return np.array([50.0, np.pi])
-    return np.array([np.log(abs(H)), np.angle(-H)])
+def _response_at(plant: LoopPlant, omega, gains) -> np.ndarray:
+    """``G(j omega_i; K_i)`` for paired arrays ``omega`` and ``gains`` (one plant
+    evaluation per distinct gain)."""
+    out = np.empty(omega.shape, complex)
+    for g in np.unique(gains):
+        sel = gains == g
+        out[sel] = plant.response(omega[sel], [g])[0]
+    return out
 
 
-def _refine(plant, N, gain, u0, v0, bounds):
-    def fun(x):
-        A, w = np.exp(x)
-        H = plant.response([w], [gain])[0, 0] * _evaluate_N(N, np.array([A]), np.array([w]))[0]
-        return _log_residual(H)
-
-    x0 = np.clip([u0, v0], bounds[0], bounds[1])
-    sol = least_squares(
-        fun,
-        x0,
-        bounds=bounds,
-        method="trf",
-        xtol=1e-15,
-        ftol=1e-15,
-        gtol=1e-15,
-        x_scale=1.0,
-        diff_step=REFINE_DIFF_STEP,
-        max_nfev=400,
-    )
-    return sol.x, float(np.sum(np.abs(sol.fun)))
+def _loop_gain(plant, N, gains, x):
+    """``G N`` at rows ``x = (ln A, ln omega)``, gain per row, in one evaluation of ``N``."""
+    w = np.exp(x[:, 1])
+    return _response_at(plant, w, gains) * _evaluate_N(N, np.exp(x[:, 0]), w)
 
 
-def _loeb(plant, N, gain, u, v, h=1e-6):
-    """``Im(conj(F_A) F_w) / (|F_A||F_w|)`` by central differences in ``ln A``, ``ln omega``."""
-    us = np.array([u + h, u - h, u, u])
-    vs = np.array([v, v, v + h, v - h])
-    G = plant.response(np.exp(vs), [gain])[0]
-    F = 1.0 + G * _evaluate_N(N, np.exp(us), np.exp(vs))
-    Fa, Fw = (F[0] - F[1]) / (2 * h), (F[2] - F[3]) / (2 * h)
-    den = abs(Fa) * abs(Fw)
-    return float((np.conj(Fa) * Fw).imag / den) if den > 0 and np.isfinite(den) else float("nan")
+def _log_residual(plant, N, gains, x):
+    """``[ln|H|, arg(-H)]`` with ``H = G N`` at rows ``x``: zero exactly at ``H = -1``; finite
+    everywhere (``[50, pi]`` where ``H`` is not finite or zero)."""
+    H = _loop_gain(plant, N, gains, x)
+    bad = ~np.isfinite(H) | (H == 0)
+    with np.errstate(all="ignore"):
+        out = np.column_stack([np.log(np.abs(H)), np.angle(-H)])
+    out[bad] = (50.0, np.pi)
+    return out
 
 
-def _solve_gain(plant, N, gain, A_grid, w_grid, Ngrid, Ggrid, max_candidates):
-    F = 1.0 + Ggrid[None, :] * Ngrid
-    pts = _candidates(F, max_candidates)
+def _wrapped(d):
+    """Differences of ``[ln|H|, arg]`` rows with the angle taken modulo ``2 pi`` into ``(-pi, pi]``."""
+    d = d.copy()
+    d[..., 1] = -np.angle(np.exp(-1j * d[..., 1]))
+    return d
+
+
+def _solve_2x2(M, b):
+    """``M x = b`` for stacks of 2x2 systems, ``x = 0`` where ``M`` is singular."""
+    det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
+    ok = np.abs(det) > 1e-300
+    det = np.where(ok, det, 1.0)
+    x0 = (M[:, 1, 1] * b[:, 0] - M[:, 0, 1] * b[:, 1]) / det
+    x1 = (M[:, 0, 0] * b[:, 1] - M[:, 1, 0] * b[:, 0]) / det
+    return np.where(ok[:, None], np.column_stack([x0, x1]), 0.0)
+
+
+def _refine(plant, N, gains, x0, bounds):
+    """Roots of ``[ln|G N|, arg(-G N)]`` from the starts ``x0`` (rows ``(ln A, ln omega)``),
+    every start at once: Levenberg-Marquardt inside the box ``bounds``.
+
+    Each iteration is two evaluations of ``N`` for all the starts still moving: the
+    Jacobian by differences of :data:`REFINE_DIFF_STEP` (backward at the upper bound), then
+    trial steps ``-(J^T J + lambda diag(J^T J))^-1 J^T r`` clipped to the box, ``lambda``
+    shrunk after a step that lowers ``|r|^2`` and grown (another trial) after one that
+    does not. A start stops when a step no longer lowers ``|r|^2`` (at a root, the floor
+    of ``N``: a callable's ~1e-15, a fitted core's jitter; elsewhere a local minimum, which
+    the caller rejects by :data:`ROOT_TOL`), when its step is below 1e-14, or after
+    :data:`REFINE_MAX_ITER` iterations. Batched because each evaluation of a fitted core's
+    ``N`` is a solve of the exact circuit whose fixed cost dwarfs a point's (one point
+    ~1.6 ms, 37 points ~3.9 ms): this replaced one ``scipy.optimize.least_squares`` per
+    start, ~36 single-point evaluations each.
+
+    Returns ``(x, residual)``: the last iterates and ``sum |[ln|H|, arg(-H)]|`` there.
+    """
+    lo, hi = bounds
+    x = np.clip(np.asarray(x0, float).reshape(-1, 2), lo, hi)
+    gains = np.asarray(gains, float)
+    r = _log_residual(plant, N, gains, x)
+    cost = np.sum(r**2, axis=1)
+    lam = np.full(len(x), 1e-3)
+    active = cost > 0
+    h = REFINE_DIFF_STEP
+    for _ in range(REFINE_MAX_ITER):
+        idx = np.flatnonzero(active)
+        if not idx.size:
+            break
+        k = idx.size
+        step = np.where(x[idx] + h <= hi, h, -h)  # (k, 2)
+        probes = np.concatenate([x[idx], x[idx]])
+        probes[:k, 0] += step[:, 0]
+        probes[k:, 1] += step[:, 1]
+        rp = _log_residual(plant, N, np.concatenate([gains[idx], gains[idx]]), probes)
+        J = np.stack(
+            [_wrapped(rp[:k] - r[idx]) / step[:, :1], _wrapped(rp[k:] - r[idx]) / step[:, 1:]],
+            axis=2,
+        )  # (k, residual, parameter)
+        JtJ = np.einsum("kri,krj->kij", J, J)
+        grad = np.einsum("kri,kr->ki", J, r[idx])
+        diag = np.einsum("kii->ki", JtJ) + 1e-12 * np.einsum("kii->k", JtJ)[:, None] + 1e-300
+        pending = np.arange(k)
+        for _ in range(REFINE_TRIALS):
+            sel = idx[pending]
+            M = JtJ[pending] + lam[sel, None, None] * np.einsum(
+                "ki,ij->kij", diag[pending], np.eye(2)
+            )
+            dx = -_solve_2x2(M, grad[pending])
+            xt = np.clip(x[sel] + dx, lo, hi)
+            rt = _log_residual(plant, N, gains[sel], xt)
+            ct = np.sum(rt**2, axis=1)
+            better = ct < cost[sel]
+            good = sel[better]
+            tiny = np.max(np.abs(xt[better] - x[good]), axis=1) < 1e-14
+            x[good], r[good], cost[good] = xt[better], rt[better], ct[better]
+            lam[good] = np.maximum(lam[good] / 3.0, 1e-12)
+            active[good[tiny | (ct[better] == 0)]] = False
+            lam[sel[~better]] *= 4.0
+            pending = pending[~better]
+            if not pending.size:
+                break
+        active[idx[pending]] = False  # no step lowers |r|^2: converged as far as N allows
+    return x, np.sum(np.abs(r), axis=1)
+
+
+def _solve_gains(plant, N, gains, A_grid, w_grid, Ngrid, Gall, max_candidates):
+    """The cycles of every gain: candidate cells of each gain's grid, all refined at once
+    (:func:`_refine`), de-duplicated, then ``N`` and Loeb's derivatives at the roots in one
+    more evaluation."""
     lu, lv = np.log(A_grid), np.log(w_grid)
     bounds = (np.array([lu[0], lv[0]]), np.array([lu[-1], lv[-1]]))
-    found = []
-    for i, j in pts:  # a handful of candidates per gain, each refined by scipy
-        x, res = _refine(plant, N, gain, lu[i], lv[j], bounds)
-        if res > ROOT_TOL:
-            continue
-        if any(abs(x[0] - y[0]) < DEDUP_TOL and abs(x[1] - y[1]) < DEDUP_TOL for y, _ in found):
-            continue
-        found.append((x, res))
-    out = []
-    for x, res in found:
-        A, w = np.exp(x)
-        Gv = plant.response([w], [gain])[0, 0]
-        Nv = _evaluate_N(N, np.array([A]), np.array([w]))[0]
-        lo = _loeb(plant, N, gain, x[0], x[1])
-        out.append(
+    starts, owner = [np.zeros((0, 2))], [np.zeros(0, int)]
+    for k in range(gains.size):
+        pts = _candidates(1.0 + Gall[k][None, :] * Ngrid, max_candidates)
+        starts.append(np.column_stack([lu[pts[:, 0]], lv[pts[:, 1]]]))
+        owner.append(np.full(len(pts), k))
+    owner = np.concatenate(owner)
+    x, res = _refine(plant, N, gains[owner], np.concatenate(starts), bounds)
+    roots = []
+    for k in range(gains.size):
+        mine = []
+        for i in np.flatnonzero(owner == k):
+            if res[i] > ROOT_TOL:
+                continue
+            if any(np.all(np.abs(x[i] - x[j]) < DEDUP_TOL) for j in mine):
+                continue
+            mine.append(i)
+        roots.extend(mine)
+    if not roots:
+        return []
+    roots = np.asarray(roots, int)
+    u, v, g, k = x[roots, 0], x[roots, 1], gains[owner[roots]], owner[roots]
+    # Loeb's derivatives: central differences in ln A and ln omega, with the root itself
+    hl = LOEB_DIFF_STEP
+    us = np.concatenate([u, u + hl, u - hl, u, u])
+    vs = np.concatenate([v, v, v, v + hl, v - hl])
+    gs = np.tile(g, 5)
+    ws = np.exp(vs)
+    Gs = _response_at(plant, ws, gs)
+    Ns = _evaluate_N(N, np.exp(us), ws)
+    F = (1.0 + Gs * Ns).reshape(5, -1)
+    Fa, Fw = (F[1] - F[2]) / (2 * hl), (F[3] - F[4]) / (2 * hl)
+    den = np.abs(Fa) * np.abs(Fw)
+    with np.errstate(all="ignore"):
+        loeb = np.where((den > 0) & np.isfinite(den), (np.conj(Fa) * Fw).imag / den, np.nan)
+    out = [
+        (
+            k[i],
             LimitCycle(
-                gain=float(gain),
-                amplitude=float(A),
-                omega=float(w),
-                stable=bool(lo > 0),
-                loeb=lo,
-                N=complex(Nv),
-                G=complex(Gv),
-                residual=res,
-            )
+                gain=float(g[i]),
+                amplitude=float(np.exp(u[i])),
+                omega=float(np.exp(v[i])),
+                stable=bool(loeb[i] > 0),
+                loeb=float(loeb[i]),
+                N=complex(Ns[i]),
+                G=complex(Gs[i]),
+                residual=float(res[roots[i]]),
+            ),
         )
-    return sorted(out, key=lambda c: c.amplitude)
+        for i in range(roots.size)
+    ]
+    # in the order of the gains given, each gain's cycles by amplitude
+    return [c for _, c in sorted(out, key=lambda kc: (kc[0], kc[1].amplitude))]
 
 
 def critical_gain(
@@ -322,11 +432,8 @@ def limit_cycles(
     A_grid, w_grid = _grids(lp, a_rng, amplitude_range, omega_range, n_amplitude, n_omega)
     Ngrid = _evaluate_N(N, A_grid[:, None], w_grid[None, :])  # the one expensive evaluation
     Gall = lp.response(w_grid, gains)
-    found = []
-    for k, g in enumerate(
-        gains
-    ):  # per gain: sign changes on the grid, then a few scipy refinements
-        found.extend(_solve_gain(lp, N, g, A_grid, w_grid, Ngrid, Gall[k], max_candidates))
+    # per gain: sign changes on the grid; then every candidate refined at once
+    found = _solve_gains(lp, N, gains, A_grid, w_grid, Ngrid, Gall, max_candidates)
     crit = _critical(lp, N, A_grid, w_grid, Ngrid, (1e-6 * gains.min(), 1e6 * gains.max()))
     return LimitCycleResponse(
         plant_label=lp.label,
