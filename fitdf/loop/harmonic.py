@@ -64,11 +64,12 @@ __all__ = [
 #: Accept a refined root when ``|ln|GN|| + |arg(-GN)|`` is below this: the floor of a
 #: fitted core's DF, whose exact circuit is accurate to its ``df_tol`` (2e-4,
 #: :class:`fitdf.chains.voltage.VoltageSettings`) and jitters by that order between points a
-#: hair apart. How far depends on the build: with numpy 2.4 / numba 0.68 a root of B.1
-#: proportional_width in the thesis plant at gain 75 stops at 1.1e-5 (the DF moves by
-#: 2e-5 over 1e-8 in ``ln A``), where earlier builds reached 1e-8 and a tolerance of 1e-6
-#: held; half the DF's own tolerance accepts what the circuit can resolve and no more.
-#: A callable's roots converge to ~1e-15.
+#: hair apart. How far depends on the build and the solver: with numpy 2.4 / numba 0.68 one
+#: ``scipy.optimize.least_squares`` per candidate stopped a root of B.1 proportional_width
+#: in the thesis plant at gain 75 at 1.1e-5 (the DF moves by 2e-5 over 1e-8 in ``ln A``;
+#: the batched refinement reaches ~1e-15 at most such roots, 8e-6 at one of ten in
+#: ``benchmarks/bench_limit_cycles.py``); half the DF's own tolerance accepts what the
+#: circuit can resolve and no more. A callable's roots converge to ~1e-15.
 ROOT_TOL = 1e-4
 #: Two roots closer than this in ``ln A`` and ``ln omega`` are one.
 DEDUP_TOL = 1e-6
