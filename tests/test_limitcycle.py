@@ -14,6 +14,8 @@ from fitdf.errors import OptionError
 from fitdf.inference.api import fit
 from fitdf.loop.fitted import fitted_limit_cycles
 from fitdf.loop.harmonic import critical_gain, limit_cycles
+from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
+from fitdf.loop.plant import as_loop_plant
 from fitdf.plots.limit_cycles import plot_nyquist, plot_thesis_comparison
 from fitdf.thesis import THESIS_PLANT, estimate_thesis_scales, thesis_limit_cycle_comparison
 
@@ -259,17 +261,22 @@ def b1_fit():
     return fit("B.1", "proportional_width", seed=0, n_starts=2)
 
 
+#: The loop of the fitted-core tests: the thesis plant at time scale 2.5, the core at 0 ohm.
+THESIS_LOOP = dict(source_impedance=0.0, time_scale=2.5, amplitude_range=(0.02, 10))
+
+
+def _thesis_loop_parts(res):
+    """``(plant, N)`` of the loop :data:`THESIS_LOOP` with the fitted core ``res``: the
+    pieces the tests' own scans evaluate, apart from the solver."""
+    lp = as_loop_plant(THESIS_PLANT, THESIS_LOOP["time_scale"])
+    N, _, _ = as_describing_function(res, THESIS_LOOP["source_impedance"])
+    return lp, N
+
+
 def test_fitted_core_in_the_thesis_loop(b1_fit):
     """A small fit to Table B.1: cycles lie in the second quadrant (phase lead, Graph 5.21) and balance."""
     res = b1_fit
-    r = limit_cycles(
-        THESIS_PLANT,
-        res,
-        gains=[50.0, 150.0],
-        source_impedance=0.0,
-        time_scale=2.5,
-        amplitude_range=(0.02, 10),
-    )
+    r = limit_cycles(THESIS_PLANT, res, gains=[50.0, 150.0], **THESIS_LOOP)
     assert r.intersections, f"no cycle with the fitted values {res.values}"
     for c in r.intersections:
         assert abs(1 + c.G * c.N) < 2e-6  # ROOT_TOL: the floor of the exact chain's DF
@@ -295,11 +302,7 @@ def test_fitted_core_cycles_at_every_gain_match_a_scan_of_the_balance_curve(b1_f
     The solver must find each of them. (With finite differences over 1e-9 in its
     refinement it missed the cycles of B.1's fits at some gains: the exact chain's DF
     jitters on that scale.)"""
-    from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
-    from fitdf.loop.plant import as_loop_plant
-
-    lp = as_loop_plant(THESIS_PLANT, 2.5)
-    N, _, _ = as_describing_function(b1_fit, 0.0)
+    lp, N = _thesis_loop_parts(b1_fit)
     A = np.geomspace(0.5, 3.0, 90)  # (below ~0.45 the loop is closed: N constant, K flat)
     w = np.geomspace(5.0, 30.0, 1200)
     G0 = lp.response(w, [1.0])[0]
@@ -317,14 +320,7 @@ def test_fitted_core_cycles_at_every_gain_match_a_scan_of_the_balance_curve(b1_f
     assert np.all(np.diff(K) > 0)  # one cycle per gain in this box
     gains = np.array([40.0, 55.55095776698429, 75.0, 101.0, 150.0])
     expected = np.exp(np.interp(gains, K, np.log(A)))
-    r = limit_cycles(
-        THESIS_PLANT,
-        b1_fit,
-        gains=gains,
-        source_impedance=0.0,
-        time_scale=2.5,
-        amplitude_range=(0.02, 10),
-    )
+    r = limit_cycles(THESIS_PLANT, b1_fit, gains=gains, **THESIS_LOOP)
     for g, a in zip(gains, expected):
         found = [c.amplitude for c in r.intersections if c.gain == g]
         assert found == [pytest.approx(a, rel=0.01)], (g, a, found)
@@ -337,20 +333,9 @@ def test_loeb_of_a_fitted_core_is_the_slope_of_a_plane_through_the_balance(b1_fi
     The exact chain's DF jitters by ~1e-5 between points 1e-8 apart; with differences over
     1e-6 the verdict was that noise (0.70 or 0.09 at one cycle, "unstable" at gain 68.5
     between stable cycles)."""
-    from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
-    from fitdf.loop.plant import as_loop_plant
-
-    lp = as_loop_plant(THESIS_PLANT, 2.5)
-    N, _, _ = as_describing_function(b1_fit, 0.0)
+    lp, N = _thesis_loop_parts(b1_fit)
     gains = np.geomspace(20.0, 300.0, 12)
-    r = limit_cycles(
-        THESIS_PLANT,
-        b1_fit,
-        gains=gains,
-        source_impedance=0.0,
-        time_scale=2.5,
-        amplitude_range=(0.02, 10),
-    )
+    r = limit_cycles(THESIS_PLANT, b1_fit, gains=gains, **THESIS_LOOP)
     # (below ~30 the cycles die out: one cycle at each of the other ten gains)
     assert [c.gain for c in r.intersections] == pytest.approx(gains[2:])
     offsets = np.linspace(-0.03, 0.03, 7)
