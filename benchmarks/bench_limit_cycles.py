@@ -3,7 +3,7 @@
 Run from the repository root::
 
     python benchmarks/bench_limit_cycles.py            # about a minute
-    python benchmarks/bench_limit_cycles.py --quick    # one repeat
+    python benchmarks/bench_limit_cycles.py --quick    # one timed repeat
 
 A least-squares fit of proportional_width to Table B.1 (exact ``voltage`` chain, seed 0)
 in the thesis plant ``K/((1+s)(1+0.25s)(1+1.1s))`` at time scale 2.5, twelve gains 20-300
@@ -20,7 +20,7 @@ in the thesis plant ``K/((1+s)(1+0.25s)(1+1.1s))`` at time scale 2.5, twelve gai
   finds together.
 
 Both start from the same grid (160 x 320 points, one batched evaluation, timed apart). The
-table gives each way's time for the refinement of the cycles, for the critical gain, their
+table gives each way's time (median of the repeats, after one untimed call) for the refinement of the cycles, for the critical gain, their
 ratio, and how far the two ways' cycles and critical gains are apart. Nothing is asserted
 (the agreement is tested: tests/test_limitcycle.py); the load average is printed.
 """
@@ -36,6 +36,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np
+from bench_voltage import median_time  # (benchmarks/ is the script's folder)
 from scipy.optimize import brentq, least_squares, minimize_scalar
 
 from fitdf.inference.api import fit
@@ -109,18 +110,9 @@ def scipy_peak(lp, N, A_grid, w_grid, i, j):
     return along(res.x)
 
 
-def best_of(repeats, f):
-    times, out = [], None
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = f()
-        times.append(time.perf_counter() - t)
-    return min(times), out
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="one repeat")
+    parser.add_argument("--quick", action="store_true", help="one timed repeat")
     ns = parser.parse_args(argv)
     repeats = 1 if ns.quick else 3
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
@@ -128,19 +120,24 @@ def main(argv=None) -> int:
     lp = as_loop_plant(THESIS_PLANT, 2.5)
     N, _, _ = as_describing_function(res, 0.0)
     A_grid, w_grid = harmonic._grids(lp, None, (0.02, 10.0), None, 160, 320)
-    t_grid, Ngrid = best_of(1, lambda: _evaluate_N(N, A_grid[:, None], w_grid[None, :]))
+    t = time.perf_counter()
+    Ngrid = _evaluate_N(N, A_grid[:, None], w_grid[None, :])
+    t_grid = time.perf_counter() - t
     G = lp.response(w_grid, GAINS)
-
-    t_ref, ref = best_of(repeats, lambda: scipy_cycles(lp, N, GAINS, A_grid, w_grid, Ngrid))
-    t_new, new = best_of(
-        repeats, lambda: harmonic._solve_gains(lp, N, GAINS, A_grid, w_grid, Ngrid, G, 40)
-    )
-    peak, i, j, _ = critical_module._crossover_peak(G[:1] / GAINS[0] * Ngrid, A_grid, w_grid)
-    t_pref, p_ref = best_of(repeats, lambda: scipy_peak(lp, N, A_grid, w_grid, i, j))
-    t_pnew, p_new = best_of(
-        repeats,
-        lambda: critical_module._peak_polish(lp, N, 1.0, A_grid, w_grid, i, j)[0],
-    )
+    _, i, j, _ = critical_module._crossover_peak(G[:1] / GAINS[0] * Ngrid, A_grid, w_grid)
+    ways = {  # name -> (the scipy peer, fitdf)
+        "cycles": (
+            lambda: scipy_cycles(lp, N, GAINS, A_grid, w_grid, Ngrid),
+            lambda: harmonic._solve_gains(lp, N, GAINS, A_grid, w_grid, Ngrid, G, 40),
+        ),
+        "peak": (
+            lambda: scipy_peak(lp, N, A_grid, w_grid, i, j),
+            lambda: critical_module._peak_polish(lp, N, 1.0, A_grid, w_grid, i, j)[0],
+        ),
+    }
+    times = {k: [median_time(f, repeats) for f in fs] for k, fs in ways.items()}
+    (ref, new), (p_ref, p_new) = ([f() for f in fs] for fs in ways.values())
+    (t_ref, t_new), (t_pref, t_pnew) = times.values()
 
     ref_roots = {round(g, 9): x for g, x in ref}
     apart = max(
