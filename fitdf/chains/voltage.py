@@ -65,9 +65,10 @@ search compiled per point (:func:`_search`): (1) coarse tables (``coarse_nodes``
 uniform, ``coarse_steps``, the law's rough branch: for Jiles-Atherton a coarser steady
 loop, the exact branch for the others) from a guess -- ``initial_current``, or the
 amplitude at which a sinusoidal flux of the loop tip's size would need ``V``,
-``hypot(R a, w B(a; a)) = V`` -- to ``coarse_tol``; (2) fine tables on nodes placed at the coarse root, secant steps
-started with the coarse slope (at most 1 % each until bracketed), and the DF
-interpolated linearly in ``I_p`` through the last pair at the secant root (its error is
+``hypot(R a, w B(a; a)) = V`` -- to ``coarse_tol``; (2) fine tables on nodes placed at
+the coarse root, secant steps started with the coarse slope (at most 1 % each until
+bracketed), and the DF interpolated linearly in ``I_p`` through the last pair at the
+secant root (its error is
 ``DF''/2`` times the distances to both points: accepted when the linear correction is at
 most ``df_tol``). ``G`` jumps where the peak current is reached by a jump onto a
 saturation flat exactly at the half period (the steady state sits on the edge, common
