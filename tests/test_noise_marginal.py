@@ -183,14 +183,13 @@ def test_student_t_normalising_constant():
     np.testing.assert_allclose(t.log_density(x) + t.log_norm, ref, rtol=1e-12)
 
 
-def test_noise_box_excludes_the_predict_nothing_mode(monkeypatch):
-    """constant_width on B.3: the least-squares optimum against the point the previous
-    report's chain converged to (k = 0.35 H: DF ~ 0, so every phase residual vanishes and
-    the magnitude scale absorbed the whole magnitude). With the magnitude scale up to 1
-    that point had the higher posterior; up to 0.3 it is below by e^15 and more (the
-    likelihood still allows the mode: the tangential residual is measured on the
-    predicted DF; the box only takes it out of reach of the chains started at least
-    squares)."""
+def test_the_predict_nothing_mode_is_gone(monkeypatch):
+    """constant_width on B.3: the least-squares optimum against the point an earlier report's
+    chain converged to (k = 0.35 H, b = 0.12 A: every row inside the dead band, DF = 0).
+    With the phase error measured on the predicted DF that point fitted every phase, and
+    with the magnitude scale free up to 1 it had the higher posterior (by 25 log units).
+    Measured on the measured |D|, with a zero DF's phase error that of a random phase, it
+    lies far below, with the magnitude box at 0.3 or at 1."""
     import fitdf.inference.noise as noise_module
     from fitdf.inference.api import resolve_geometry
 
@@ -199,12 +198,54 @@ def test_noise_box_excludes_the_predict_nothing_mode(monkeypatch):
     lsq_point = {"k": 49.264, "b": 1.0548e-4, "c": 0.041379, "r_winding": 53.296, "gain": 0.95310}
     nothing = {"k": 0.34898, "b": 0.12072, "c": 0.0090893, "r_winding": 54.825, "gain": 1.1913}
     X = np.array([problem.to_internal(v) for v in (lsq_point, nothing)])
-    assert np.abs(problem.predict(X[1])).max() < 0.1 < np.abs(problem.predict(X[0])).min()
+    assert np.all(problem.predict(X[1]) == 0) and np.abs(problem.predict(X[0])).min() > 0.1
     fitted, degenerate = LogPosterior(problem, marginal_noise=True)(X)
-    assert fitted - degenerate > 15
+    assert fitted - degenerate > 150
     monkeypatch.setattr(noise_module, "NOISE_BOUNDS", np.array([[-3.0, 0.0], [-1.0, np.log10(50)]]))
     fitted, degenerate = LogPosterior(problem, marginal_noise=True)(X)
-    assert degenerate > fitted  # why the box stops at 0.3
+    assert fitted - degenerate > 150
+    # the former residual, |M| sin(dphi) on the predicted DF, is what made it a mode
+    D = problem.data.measured
+    monkeypatch.setattr(
+        FitProblem,
+        "error_components",
+        lambda self, M: (
+            (M * np.conj(D / np.abs(D))).real - np.abs(D),
+            (M * np.conj(D / np.abs(D))).imag,
+        ),
+    )
+    fitted, degenerate = LogPosterior(problem, marginal_noise=True)(X)
+    assert degenerate > fitted + 20
+
+
+def test_error_components_are_magnitude_and_phase():
+    """The two residual parts are |M| - |D| and |D| (arg M - arg D), wrapped; a zero DF
+    misses the phase by pi/sqrt(3), a zero measurement has no phase part."""
+    from fitdf.inference.api import resolve_geometry
+    from fitdf.inference.problem import UNDEFINED_PHASE_ERROR
+
+    rows = resolve_data("B.3", "default", None)
+    problem = FitProblem(rows, "constant_width", "voltage", geometry=resolve_geometry("auto", rows))
+    D = problem.data.measured
+    rng = np.random.default_rng(0)
+    dphi = rng.uniform(-3.1, 3.1, D.size)
+    gain = rng.uniform(0.5, 1.5, D.size)
+    M = D * gain * np.exp(1j * dphi)
+    mag, arc = problem.error_components(M)
+    np.testing.assert_allclose(mag, (gain - 1) * np.abs(D), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(arc, np.abs(D) * dphi, rtol=1e-10)
+    # 3 rad ahead and 3 rad behind are the same distance from pi: wrapped, not 6 rad apart
+    _, a = problem.error_components(D * np.exp(1j * 3.5))
+    np.testing.assert_allclose(a, np.abs(D) * (3.5 - 2 * np.pi), rtol=1e-10)
+    _, a = problem.error_components(np.zeros_like(D))
+    np.testing.assert_allclose(a, np.abs(D) * UNDEFINED_PHASE_ERROR, rtol=1e-12)
+    # against the first-order split along the measured phasor, for small errors
+    small = D * (1 + 1e-4 * rng.standard_normal(D.size)) * np.exp(1e-4j * rng.standard_normal(D.size))
+    u = D / np.abs(D)
+    mag, arc = problem.error_components(small)
+    e = (small - D) * np.conj(u)
+    np.testing.assert_allclose(mag, e.real, atol=1e-7 * np.abs(D).max())
+    np.testing.assert_allclose(arc, e.imag, atol=1e-7 * np.abs(D).max())
 
 
 def test_noise_scale_against_its_cap_is_named():

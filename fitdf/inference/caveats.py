@@ -102,8 +102,8 @@ def _bound_share(x, lo, hi, rel):
 #: Why a noise scale's posterior may run into a bound: (scale, side) -> what it means.
 _NOISE_BOUND_REASONS = {
     ("sigma_magnitude", "upper"): (
-        " (the law gives up its magnitudes to fit its phases: a describing function shrunk "
-        "toward zero fits every phase, and the cap keeps the posterior from going there)"
+        " (the law gives up its magnitudes to fit its phases: the box, 30 times the "
+        "tables' printed precision, is the largest magnitude noise fitdf believes)"
     ),
     ("sigma_phase_deg", "upper"): " (the law does not follow the measured phases)",
 }

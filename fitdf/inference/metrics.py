@@ -1,7 +1,7 @@
 """Goodness-of-fit numbers, computed in one place and documented once.
 
-With ``r`` the weighted residual vector (length ``N = 2 n`` for ``n`` rows: radial and
-tangential parts, see :mod:`fitdf.inference.problem`) and ``k`` fitted parameters:
+With ``r`` the weighted residual vector (length ``N = 2 n`` for ``n`` rows: magnitude and
+phase parts, see :mod:`fitdf.inference.problem`) and ``k`` fitted parameters:
 
 * ``chi2 = sum(r**2)`` with the printed-precision noise scales, ``redchi = chi2 / (N - k)``;
 * ``aic = N ln(chi2 / N) + 2 k`` (the noise scale profiled out, lmfit's convention),

@@ -35,14 +35,15 @@ from scipy.special import logsumexp
 __all__ = ["NOISE_BOUNDS", "NOISE_NAMES", "NoiseMarginal"]
 
 #: log10 bounds of the fitted noise scales (magnitude, phase in degrees). The magnitude's
-#: upper bound is 0.3, not 1: the tangential residual is measured on the predicted DF, so
-#: a law that predicts DF ~ 0 fits every phase exactly, and with the magnitude scale free
-#: up to 1 the posterior's mass went there (constant_width and cubic_hc on B.3 "converged"
-#: at sigma_magnitude 0.64, magnitude RMS 0.63, phase RMS 0.00 deg, k = 0.35 H against the
-#: least-squares 49 H). At 0.3 (30 times the printed precision, twice the largest
-#: magnitude RMS of any law's least-squares fit, 0.15) that point is 18 log units below
-#: the least-squares one instead of above it (``tests/test_noise_marginal.py``): a box,
-#: not a cure; measuring the tangential residual on the measured ``|D|`` would be one.
+#: upper bound is 0.3, not 1: 30 times the tables' printed precision and twice the largest
+#: magnitude RMS of any law's least-squares fit (0.15). A wider box let the posterior of a
+#: law that predicts DF ~ 0 trade every magnitude for its phases: with the phase error once
+#: measured on the *predicted* DF, that point (constant_width and cubic_hc on B.3
+#: "converged" at sigma_magnitude 0.64, magnitude RMS 0.63, phase RMS 0.00 deg, k = 0.35 H
+#: against the least-squares 49 H) had the higher posterior. The phase error is now
+#: measured on the measured ``|D|`` (:mod:`fitdf.inference.problem`) and that point is
+#: 190 log units below the least-squares one even with the box up to 1
+#: (``tests/test_noise_marginal.py``); the box stays as the prior of a measurement noise.
 NOISE_BOUNDS = np.array([[-3.0, np.log10(0.3)], [-1.0, np.log10(50.0)]])
 NOISE_NAMES = ("sigma_magnitude", "sigma_phase_deg")
 

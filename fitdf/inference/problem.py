@@ -7,13 +7,20 @@ evaluates in one call.
 
 Residual definition
 -------------------
-For a row with measured ``D`` and predicted ``M`` the complex error ``e = M - D`` is
-split along the measured phasor ``u = D/|D|``: the radial part ``Re(e u*)`` is the
-magnitude error and the tangential part ``Im(e u*)`` is ``|D|`` times the phase error
-(to first order). They are scaled by the magnitude noise and by ``|D|`` times the phase
+For a row with measured ``D`` and predicted ``M`` the error has two parts, in the
+quantities the analyser reads (Chapter V: a magnitude and a phase against input
+amplitude): the magnitude error ``|M| - |D|`` and the phase error
+``arg M - arg D`` (wrapped to (-pi, pi]) times ``|D|``, the arc it spans on the
+measured circle. They are scaled by the magnitude noise and by ``|D|`` times the phase
 noise (with a floor), so a degree of phase counts less where the DF itself is tiny,
-where the analyser's phase reading means little. Where ``D = 0`` the predicted phasor
-gives the direction.
+where the analyser's phase reading means little. Where ``D = 0`` there is no phase, and
+only the magnitude counts.
+
+(To first order this is the complex error ``M - D`` split along the measured phasor:
+radial ``Re((M - D) u*)`` and tangential ``Im((M - D) u*)``, ``u = D/|D|``, which is what
+fitdf used before. That tangential part is ``|M| sin(dphi)``: measured on the
+*predicted* magnitude, so a law predicting ``M ~ 0`` fitted every phase, and posteriors
+found that mode, ``tests/test_noise_marginal.py``.)
 """
 
 from __future__ import annotations
@@ -30,11 +37,16 @@ from fitdf.errors import ModelError
 from fitdf.models import get_model
 from fitdf.params import PER_TABLE, ParamSpec, table_parameter
 
-__all__ = ["FitProblem", "physical_spec", "R_WINDING_PRIOR_SIGMA"]
+__all__ = ["FitProblem", "physical_spec", "R_WINDING_PRIOR_SIGMA", "UNDEFINED_PHASE_ERROR"]
 
 #: Width (natural log) of the log-normal prior of the winding resistance about its
 #: geometry estimate: the Appendix A estimate is good to about 30 %.
 R_WINDING_PRIOR_SIGMA = 0.3
+
+#: Phase error (rad) of a row whose predicted DF is exactly 0: the RMS error of a phase
+#: drawn uniformly on the circle. (Counted as 0, a law whose loop never leaves its dead
+#: band "fitted" every phase: constant_width on B.3, k = 0.35 H, b = 0.12 A.)
+UNDEFINED_PHASE_ERROR = np.pi / np.sqrt(3.0)
 
 
 def physical_spec(spec: ParamSpec, geometry: CoreGeometry) -> ParamSpec:
@@ -232,14 +244,15 @@ class FitProblem:
 
     # ---------------------------------------------------------------- residuals
     def error_components(self, predicted):
-        """Radial (magnitude) and tangential (|D| x phase) parts of ``M - D``."""
+        """Magnitude error ``|M| - |D|`` and phase error times ``|D|`` (the arc on the
+        measured circle; module docstring), each of the shape of ``predicted``."""
         D = self.data.measured
-        u = np.where(np.abs(D) > 0, D / np.where(np.abs(D) > 0, np.abs(D), 1.0), 1.0 + 0j)
-        pm = np.abs(predicted)
-        u_pred = np.where(pm > 0, predicted / np.where(pm > 0, pm, 1.0), 1.0 + 0j)
-        u = np.where(np.abs(D) > 0, u, u_pred)
-        e = (predicted - D) * np.conj(u)
-        return e.real, e.imag
+        absD = np.abs(D)
+        phase = np.angle(predicted * np.conj(D))  # x |D| below: nothing where D = 0
+        # M = 0 (a loop that never leaves its dead band) has no phase: it misses the
+        # measured one as a uniformly random phase would, by pi/sqrt(3) rms
+        phase = np.where(predicted == 0, UNDEFINED_PHASE_ERROR, phase)
+        return np.abs(predicted) - absD, absD * phase
 
     def scales(self, sigma_magnitude=None, sigma_phase_deg=None):
         """Radial and tangential noise scales per row (broadcast against batches)."""
