@@ -240,7 +240,9 @@ def test_error_components_are_magnitude_and_phase():
     _, a = problem.error_components(np.zeros_like(D))
     np.testing.assert_allclose(a, np.abs(D) * UNDEFINED_PHASE_ERROR, rtol=1e-12)
     # against the first-order split along the measured phasor, for small errors
-    small = D * (1 + 1e-4 * rng.standard_normal(D.size)) * np.exp(1e-4j * rng.standard_normal(D.size))
+    small = (
+        D * (1 + 1e-4 * rng.standard_normal(D.size)) * np.exp(1e-4j * rng.standard_normal(D.size))
+    )
     u = D / np.abs(D)
     mag, arc = problem.error_components(small)
     e = (small - D) * np.conj(u)

@@ -35,7 +35,7 @@ from fitdf.data.cores import CoreGeometry
 from fitdf.data.fitdata import FitData, NoiseModel
 from fitdf.errors import ModelError
 from fitdf.models import get_model
-from fitdf.params import PER_TABLE, ParamSpec, table_parameter
+from fitdf.params import PER_TABLE, ParamSpec, parameter_base, table_parameter
 
 __all__ = ["FitProblem", "physical_spec", "R_WINDING_PRIOR_SIGMA", "UNDEFINED_PHASE_ERROR"]
 
@@ -282,19 +282,40 @@ class FitProblem:
 
     def objective_residuals(self, internal):
         """Data residuals and prior residuals: what least squares minimises (a penalised chi-square)."""
-        return np.concatenate(
-            [self.weighted_residuals(internal), self.prior_residuals(internal)], axis=-1
-        )
+        return self.objective_residuals_from(internal, self.predict(internal))
+
+    def objective_residuals_from(self, internal, predicted):
+        """:meth:`objective_residuals` at ``internal`` from its prediction ``predicted``."""
+        return np.concatenate([self._weighted(predicted), self.prior_residuals(internal)], axis=-1)
+
+    @property
+    def output_scale_indices(self) -> list[int]:
+        """Positions in the internal vector of the parameters that only scale the prediction
+        (the per-table calibration gains, applied after the chain): a change of them is a
+        rescaling of rows, which needs no new solve of the chain (:meth:`rescaled`)."""
+        return [i for i, s in enumerate(self.specs) if parameter_base(s.name) in PER_TABLE]
+
+    def rescaled(self, predicted, internal_from, internal_to):
+        """The prediction at ``internal_to`` from the prediction ``predicted`` at
+        ``internal_from``, where the two differ only in :attr:`output_scale_indices`
+        (batch-aware: the vectors broadcast against each other)."""
+        n = self.data.n
+        before = self._gain_per_row(self.full_natural(internal_from), n, None)
+        after = self._gain_per_row(self.full_natural(internal_to), n, None)
+        return predicted * (after / before)
 
     def log_prior(self, internal):
         """Log of the Gaussian priors (up to a constant), for MCMC."""
         return -0.5 * np.sum(self.prior_residuals(internal) ** 2, axis=-1)
 
     def weighted_residuals(self, internal):
-        """Residual vector ``[radial/sigma_r, tangential/sigma_t]`` of length ``2n``."""
-        radial, tang = self.error_components(self.predict(internal))
-        sr, st = self.scales()
-        return np.concatenate([radial / sr, tang / st], axis=-1)
+        """Residual vector ``[magnitude/sigma_m, arc/sigma_t]`` of length ``2n``."""
+        return self._weighted(self.predict(internal))
+
+    def _weighted(self, predicted):
+        magnitude, arc = self.error_components(predicted)
+        sm, st = self.scales()
+        return np.concatenate([magnitude / sm, arc / st], axis=-1)
 
     def pointwise_loglike(self, internal, sigma_magnitude=None, sigma_phase_deg=None):
         """Gaussian log-likelihood per row (batch-aware), for MCMC and PSIS-LOO/WAIC."""
