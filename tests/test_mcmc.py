@@ -204,3 +204,33 @@ def test_posterior_bound_warning_counts_the_draws_at_a_bound(problem):
     (warning,) = posterior_bound_warnings(problem, draws)
     assert f"posterior of {problem.names[1]} runs into its upper bound" in warning
     assert "63 % of the draws" in warning
+
+
+def test_arviz_shape_notice_stays_off_the_terminal():
+    """A chain stopped early and thinned can hand ArviZ fewer draws per walker than its
+    shape heuristic expects; its log line (which reached the report's terminal) is dropped
+    while fitdf computes diagnostics, and only then. (ArviZ logs a message once per
+    process, so its cache is cleared to make each check count.)"""
+    import logging
+    import warnings
+
+    from fitdf._arviz import az
+    from fitdf.inference.mcmc import chain_diagnostics
+
+    log = az._log
+    seen = []
+    handler = logging.Handler()
+    handler.emit = lambda record: seen.append(record.getMessage())
+    log.addHandler(handler)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            log.cache.clear()
+            d = chain_diagnostics(np.random.default_rng(0).normal(size=(1, 8, 2)), ["a", "b"])
+            assert set(d["rhat"]) == {"a", "b"}
+            assert not any("Shape validation" in m for m in seen)
+            log.cache.clear()
+            az.rhat(az.from_dict(posterior={"a": np.zeros((8, 1))}))  # outside: still logged
+    finally:
+        log.removeHandler(handler)
+    assert any("Shape validation" in m for m in seen)

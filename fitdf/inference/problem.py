@@ -255,7 +255,7 @@ class FitProblem:
         return np.abs(predicted) - absD, absD * phase
 
     def scales(self, sigma_magnitude=None, sigma_phase_deg=None):
-        """Radial and tangential noise scales per row (broadcast against batches)."""
+        """Magnitude and arc (|D| x phase) noise scales per row (broadcast against batches)."""
         sm = (
             self.noise.sigma_magnitude
             if sigma_magnitude is None
