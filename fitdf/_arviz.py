@@ -27,7 +27,7 @@ with warnings.catch_warnings():
 
 __all__ = ["az", "REFACTOR_NOTICE", "walkers_as_chains"]
 
-#: The start of ArviZ's log line about an array's shape (``arviz.utils``).
+#: The start of ArviZ's log line about an array's shape (``arviz.stats.stats_utils``).
 SHAPE_NOTICE = "Shape validation failed"
 
 
