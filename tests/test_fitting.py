@@ -398,18 +398,17 @@ def test_a_law_with_a_start_multiple_gets_that_many_more_starts():
 
 @pytest.mark.slow
 def test_cubic_hc_needs_its_start_multiple_on_deltamax(monkeypatch):
-    """The usual six starts end above cubic_hc's best basin on B.5 (chi-square 5030 on this
-    seed, against 4486 with 24; 24 starts find 4020-4486 on three seeds, six 4022-5030:
-    the law's kinks, ``CubicHc``). Under the former residual (the phase error on the
-    predicted DF) the gap was wider, 23489 against ~4000, and B.2 showed it too (1831
-    against 1175-1335); with the phase error on the measured |D| six starts reach B.2's
-    24-start optimum on this seed (1320)."""
+    """Six starts can all end far above cubic_hc's best basin on B.5 (seed 1: chi-square
+    23377 against 4162 with 24 starts; the law's kinks, ``CubicHc``). Over seeds 0/1/2 six
+    starts gave 4492/23377/4072 and 24 gave 4474/4162/4015 (on B.2 1351/1353/1497 against
+    1351/1176/1383). Which seed misses moves with the polish's last digits: before the
+    gains' Jacobian columns were rescaled it was seed 0 (5030 against 4486)."""
     from fitdf.models import get_model
 
     law = get_model("cubic_hc")
-    r = fitdf.fit("B.5", "cubic_hc", seed=0)
+    r = fitdf.fit("B.5", "cubic_hc", seed=1)
     assert len(r.info["starts_chi2"]) == 24
-    assert r.metrics["chi2"] < 4600
+    assert r.metrics["chi2"] < 4300
     monkeypatch.setattr(law, "start_multiple", 1)
-    six = fitdf.fit("B.5", "cubic_hc", seed=0)
-    assert six.metrics["chi2"] > 1.1 * r.metrics["chi2"]
+    six = fitdf.fit("B.5", "cubic_hc", seed=1)
+    assert six.metrics["chi2"] > 2 * r.metrics["chi2"]

@@ -154,9 +154,8 @@ class CubicHc(HysteresisModel):
     title = "Fig 4.2 loop, width from a cubic coercive-force law with dead zone and tail"
     equations = "eqs 4.6, 4.7 with 4.8 and 4.11 (made continuous); 4.9, 4.10 for alpha, beta"
     # The width clips at the widest loop (m = 1) and the width law has three joints:
-    # chi-square has kinks and ledges. With 6 starts the polishes end above the best basin
-    # on Deltamax (B.5: 4022-5030 over three seeds, 24 starts 4020-4486; with the former
-    # phase residual on the predicted DF 23489 against ~4000).
+    # chi-square has kinks and ledges. With 6 starts the polishes can all end far above the
+    # best basin on Deltamax (B.5, seeds 0/1/2: 4492/23377/4072, 24 starts 4474/4162/4015).
     start_multiple = 4
     params = (
         K_SPEC,
