@@ -27,7 +27,6 @@ ratio, and how far the two ways' cycles and critical gains are apart. Nothing is
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import time
@@ -36,7 +35,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np
-from bench_voltage import median_time  # (benchmarks/ is the script's folder)
+from bench_voltage import median_time, timed_repeats  # (benchmarks/ is the script's folder)
 from scipy.optimize import brentq, least_squares, minimize_scalar
 
 from fitdf.inference.api import fit
@@ -111,11 +110,7 @@ def scipy_peak(lp, N, A_grid, w_grid, i, j):
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="one timed repeat")
-    ns = parser.parse_args(argv)
-    repeats = 1 if ns.quick else 3
-    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    repeats = timed_repeats(__doc__, argv)
     res = fit("B.1", "proportional_width", seed=0, n_starts=2)
     lp = as_loop_plant(THESIS_PLANT, 2.5)
     N, _, _ = as_describing_function(res, 0.0)

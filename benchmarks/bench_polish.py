@@ -23,14 +23,13 @@ agreement with scipy's is tested in tests/test_fitting.py); the load average is 
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench_voltage import median_time  # (benchmarks/ is the script's folder)
+from bench_voltage import median_time, timed_repeats  # (benchmarks/ is the script's folder)
 
 from fitdf.inference import lsq
 from fitdf.inference.api import resolve_data, resolve_geometry
@@ -58,11 +57,7 @@ def _problem(cls, data, law):
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="one timed repeat")
-    ns = parser.parse_args(argv)
-    repeats = 1 if ns.quick else 3
-    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    repeats = timed_repeats(__doc__, argv)
     print(
         f"{'block':10s} {'law':15s} {'gains':>5s} {'solved':>9s} {'nfev':>5s} {'chi2':>11s}"
         f" {'rescaled':>9s} {'nfev':>5s} {'chi2':>11s} {'speed-up':>8s}"

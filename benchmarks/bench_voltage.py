@@ -64,6 +64,16 @@ SETS = {
 }
 
 
+def timed_repeats(doc, argv=None, full=3):
+    """The repeats a benchmark's ``main`` times (1 with ``--quick``, else ``full``), after
+    parsing its command line (description: ``doc``'s first line) and printing the load."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one timed repeat")
+    ns = parser.parse_args(argv)
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    return 1 if ns.quick else full
+
+
 def median_time(fn, repeats):
     fn()
     times = []
