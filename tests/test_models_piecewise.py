@@ -15,8 +15,11 @@ from hypothesis import strategies as st
 from fitdf.models.constant_width import ConstantWidth
 from fitdf.models.cubic_hc import (
     KS_MAGNET_STEEL,
+    KS_MAGNET_STEEL_SHAPE,
     CubicHc,
     cubic_from_kennelly,
+    cubic_law,
+    cubic_shape,
     cubic_width,
     ks_magnet_steel_hc,
 )
@@ -27,6 +30,13 @@ from fitdf.models.proportional_width import (
 )
 
 TOL = 1e-9  # absolute, in units of k
+
+
+def cubic(k, c, **law):
+    """CubicHc's keyword arguments for eq 4.8's constants ``alpha, beta, h0, h1, tail_slope``."""
+    return dict(k=k, c=c, **{n: float(v) for n, v in cubic_shape(**law).items()})
+
+
 FAST = settings(max_examples=8, deadline=None)
 PROPORTIONAL = (ProportionalWidth, ProportionalWidthFig42)
 
@@ -128,29 +138,27 @@ def test_proportional_property(k, c_over_k, m, fig42):
 @pytest.mark.parametrize("c", [np.inf, 3.2375, 1.0, 0.2])
 def test_cubic_ks_grid(c):
     A = np.concatenate([np.linspace(0.05, 60.0, 40), around(0.5), around(0.50156), around(5.0)])
-    assert_matches_referee(CubicHc, A, k=1.0, c=c, **KS_MAGNET_STEEL)
+    assert_matches_referee(CubicHc, A, k=1.0, c=c, **KS_MAGNET_STEEL_SHAPE)
 
 
 @FAST
 @given(
-    alpha=st.floats(0.01, 3.0),
-    beta_rel=st.floats(0.0, 1.0),
-    h0=st.floats(0.0, 1.0),
+    m1=st.floats(0.01, 3.0),
+    bend=st.floats(0.0, 0.95),
+    h0_ratio=st.floats(0.0, 0.95),
     h1=st.floats(0.5, 4.0),
     tail=st.floats(0.0, 0.5),
     c=st.floats(0.1, 5.0),
 )
-def test_cubic_property(alpha, beta_rel, h0, h1, tail, c):
-    beta = beta_rel * alpha / (3 * h1**2)  # up to a maximum of the cubic at h1
+def test_cubic_property(m1, bend, h0_ratio, h1, tail, c):
     A = np.concatenate([np.geomspace(0.02, 30.0, 34), around(h1, (1e-9,))])
-    assert_matches_referee(
-        CubicHc, A, k=1.5, c=c, alpha=alpha, beta=beta, h0=h0, h1=h1, tail_slope=tail
-    )
+    theta = dict(h1=h1, m1=m1, tail_slope=tail, h0_ratio=h0_ratio, bend=bend)
+    assert_matches_referee(CubicHc, A, k=1.5, c=c, **theta)
 
 
 def test_cubic_reaches_cut_quadrilateral_regime():
     # alpha = 0.9 gives m > 0.5 with k b > c below saturation (the "cut" regime)
-    theta = dict(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0)
+    theta = cubic(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0)
     A = np.linspace(1.2, 9.0, 30)  # c/(k m) = 1.11 < A < A_sat = 10
     assert_matches_referee(CubicHc, A, **theta)
 
@@ -182,7 +190,7 @@ def test_m0_is_plain_saturation(model):
         atol=1e-14,
     )
     dead = CubicHc.describing_function(
-        A, k=2.0, c=5.0, alpha=0.5, beta=0.0, h0=1e3, h1=1e4, tail_slope=0.1
+        A, **cubic(k=2.0, c=5.0, alpha=0.5, beta=0.0, h0=1e3, h1=1e4, tail_slope=0.1)
     )
     np.testing.assert_allclose(dead, saturation_df(A, 2.0, 5.0), rtol=0, atol=1e-14)
 
@@ -276,7 +284,7 @@ def test_constant_width_accepts_array_b():
 def test_cubic_with_linear_law_is_proportional_fig42():
     A = np.geomspace(0.1, 100.0, 40)
     N = CubicHc.describing_function(
-        A, k=1.0, c=5.0, alpha=0.3, beta=0.0, h0=0.0, h1=1e6, tail_slope=0.0
+        A, **cubic(k=1.0, c=5.0, alpha=0.3, beta=0.0, h0=0.0, h1=1e6, tail_slope=0.0)
     )
     np.testing.assert_allclose(
         N, ProportionalWidthFig42.describing_function(A, k=1.0, c=5.0, m=0.3), rtol=0, atol=1e-14
@@ -289,7 +297,7 @@ CASES = [
     (ConstantWidth, dict(k=2.0, b=0.5, c=3.0)),
     (ProportionalWidth, dict(k=2.0, c=3.0, m=0.3)),
     (ProportionalWidthFig42, dict(k=2.0, c=3.0, m=0.7)),
-    (CubicHc, dict(k=2.0, c=3.0, **KS_MAGNET_STEEL)),
+    (CubicHc, dict(k=2.0, c=3.0, **KS_MAGNET_STEEL_SHAPE)),
 ]
 
 
@@ -319,10 +327,10 @@ BOUNDARIES = [
     (ProportionalWidth, dict(k=2.0, c=3.0, m=0.3), [1.5 / 0.7]),  # A_sat
     (ProportionalWidthFig42, dict(k=2.0, c=3.0, m=0.3), [1.5 / 0.7, 1.5 / 0.3]),  # lens, clipped
     (ProportionalWidthFig42, dict(k=2.0, c=3.0, m=0.7), [1.5 / 0.7, 1.5 / 0.3]),  # cut, clipped
-    (CubicHc, dict(k=1.0, c=3.2375, **KS_MAGNET_STEEL), [0.5, 0.501563, 5.0]),
+    (CubicHc, dict(k=1.0, c=3.2375, **KS_MAGNET_STEEL_SHAPE), [0.5, 0.501563, 5.0]),
     (
         CubicHc,
-        dict(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0),
+        cubic(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0),
         [1.0 / 0.9, 10.0],
     ),
 ]
@@ -345,7 +353,7 @@ def test_continuous_at_regime_boundaries(model, theta, edges):
     CASES
     + [
         (ConstantWidth, dict(k=2.0, b=3.0, c=1.0)),
-        (CubicHc, dict(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0)),
+        (CubicHc, cubic(k=1.0, c=1.0, alpha=0.9, beta=0.0, h0=0.0, h1=100.0, tail_slope=0.0)),
     ],
 )
 def test_lag_and_loop_area(model, theta):
@@ -394,12 +402,13 @@ def test_cubic_from_kennelly(a, inv_b):
 def test_cubic_limit_warning_names_the_rows_on_the_widest_loop():
     """Rows named as on the widest loop are those whose DF no longer depends on alpha (the
     clip ``m = 1`` sets them), checked on the numerical referee of the loop itself."""
-    theta = dict(k=1.0, c=np.inf, alpha=1.5, beta=0.5, h0=1e-9, h1=10.0, tail_slope=0.01)
+    law = dict(alpha=1.5, beta=0.5, h0=1e-9, h1=10.0, tail_slope=0.01)
+    theta = cubic(k=1.0, c=np.inf, **law)
     A = np.array([0.2, 0.5, 0.9, 0.99, 1.1, 1.5])  # m = 1.5 - 0.5 A^2: 1.48 ... 0.375
     (warning,) = CubicHc.limit_warnings(A, **theta)
     assert "widest loop" in warning and "at 4 of 6 rows" in warning
     assert "peak currents 0.2..0.99 A" in warning
-    wider = {**theta, "alpha": 1.1 * theta["alpha"]}
+    wider = cubic(k=1.0, c=np.inf, **{**law, "alpha": 1.1 * law["alpha"]})
     before, after = (
         CubicHc.numerical_describing_function(A, n_points=2**12, **t) for t in (theta, wider)
     )
@@ -407,5 +416,39 @@ def test_cubic_limit_warning_names_the_rows_on_the_widest_loop():
     np.testing.assert_allclose(after[clipped], before[clipped], rtol=1e-12, atol=1e-12)
     assert np.all(np.abs(after[~clipped] - before[~clipped]) > 1e-2)
     # within the margin but not on the clip: still named (m = 0.995 at A = 1)
-    assert "at 1 of 1 rows" in CubicHc.limit_warnings([1.0], **{**theta, "beta": 0.505})[0]
-    assert CubicHc.limit_warnings(A, **{**theta, "alpha": 0.9}) == []
+    near = cubic(k=1.0, c=np.inf, **{**law, "beta": 0.505})
+    assert "at 1 of 1 rows" in CubicHc.limit_warnings([1.0], **near)[0]
+    assert CubicHc.limit_warnings(A, **cubic(k=1.0, c=np.inf, **{**law, "alpha": 0.9})) == []
+
+
+def test_cubic_coordinates_are_eq_4_8_law_and_back():
+    """``cubic_law`` and ``cubic_shape`` are inverse; beyond ``h1`` the width is
+    ``m1 h1 + tail_slope (A - h1)``; the coordinates the data leave free there
+    (``h0_ratio``, ``bend``) do not move the law at or above ``h1``."""
+    law = cubic_law(**KS_MAGNET_STEEL_SHAPE)
+    for name, value in KS_MAGNET_STEEL.items():
+        assert float(law[name]) == pytest.approx(value, rel=1e-13)
+    assert KS_MAGNET_STEEL_SHAPE["m1"] == pytest.approx(1.7625 / 5.0, rel=1e-13)
+    rng = np.random.default_rng(3)
+    shapes = dict(
+        h1=rng.uniform(1e-4, 1e-3, 50),
+        m1=10 ** rng.uniform(-3, 0.5, 50),
+        tail_slope=10 ** rng.uniform(-5, -1, 50),
+        h0_ratio=rng.uniform(0, 0.95, 50),
+        bend=rng.uniform(0, 0.95, 50),
+    )
+    back = cubic_shape(**cubic_law(**shapes))
+    for name, value in shapes.items():
+        np.testing.assert_allclose(back[name], value, rtol=1e-10, atol=1e-15)
+    A = np.outer(shapes["h1"], [1.0, 1.5, 4.0, 30.0])
+    h1, m1, s = (shapes[n][:, None] for n in ("h1", "m1", "tail_slope"))
+    tail = m1 * h1 + s * (A - h1)
+    law = {n: v[:, None] for n, v in cubic_law(**shapes).items()}
+    np.testing.assert_allclose(cubic_width(A, **law), tail, rtol=1e-12)
+    free = {"h0_ratio": shapes["h0_ratio"][::-1], "bend": shapes["bend"][::-1]}
+    other = {**shapes, **free}
+    np.testing.assert_allclose(
+        cubic_width(A, **{n: v[:, None] for n, v in cubic_law(**shapes).items()}),
+        cubic_width(A, **{n: v[:, None] for n, v in cubic_law(**other).items()}),
+        rtol=1e-12,
+    )

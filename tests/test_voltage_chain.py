@@ -37,7 +37,8 @@ PARAMS = {
     "constant_width": [20.0, 3e-5, 0.035],
     "proportional_width": [20.0, 0.035, 0.3],
     "proportional_width_fig42": [20.0, 0.035, 0.4],
-    "cubic_hc": [20.0, 0.035, 0.1, 1e5, 1e-5, 3e-4, 1e-3],
+    # k, c, h1, m1, tail_slope, h0_ratio, bend: eq 4.8's alpha 0.1, beta 1e5 A^-2, h0 1e-5 A
+    "cubic_hc": [20.0, 0.035, 3e-4, 0.263 / 3, 1e-3, 1 / 30, 0.27 / 2.9],
     "frequency_hc": [20.0, 0.035, 0.3, 2e-6, 4e-8],
     "rayleigh": [15.0, 3e4, 0.035],
 }

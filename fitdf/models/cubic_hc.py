@@ -11,6 +11,32 @@ continuous by construction. It sets ``m = b(A)/A`` (clipped to ``[0, 1]``) in th
 of Fig 4.2 (:class:`~fitdf.models.proportional_width.ProportionalWidthFig42`, eqs 4.6 and
 4.7), exactly as the thesis substitutes eq 4.11 into eqs 4.6/4.7 for Graph 4.7.
 
+Parameters: the same law, in coordinates the data determine
+------------------------------------------------------------
+:class:`CubicHc` is fitted in ``(h1, m1, tail_slope, h0_ratio, bend)`` instead of eq 4.8's
+``(alpha, beta, h0, h1, tail_slope)`` (:func:`cubic_law` and :func:`cubic_shape` convert):
+
+* ``m1 = b(h1)/h1``, the loop's relative width (``m`` of eq 4.2) where the tail starts;
+* ``h0_ratio = h0/h1``, where the dead zone ends, as a fraction of ``h1``;
+* ``bend = beta h1^3 / (alpha (h1 - h0))``, the fraction of the linear rise that the
+  cubic term takes back at ``h1``,
+
+so that ``alpha = m1 / ((1 - h0_ratio)(1 - bend))``, ``h0 = h0_ratio h1`` and
+``beta = bend m1 / ((1 - bend) h1^2)``.
+
+Why: where the measured rows lie on the tail (all of Deltamax's but one, whose tail
+starts near its lowest currents) the data see ``b(h1) = alpha (h1 - h0) - beta h1^3``, one
+number for three constants. In eq 4.8's coordinates that left a curved ridge over decades
+of ``alpha``, ``beta`` and ``h0`` (the report's chains: acceptance 1-4 %, R-hat up to
+1.7). Here ``b(h1)`` is ``m1 h1``, and the two constants the data leave free there,
+``h0_ratio`` and ``bend``, only shape the law below the rows: axes of a box the sampler
+crosses freely. The family is eq 4.8's with ``0 <= h0 < h1`` and ``b(h1) > 0``; the
+bounds add ``bend <= 0.95``, ``h0_ratio <= 0.95`` and ``m1 <= 10``.
+
+(The tail's intercept ``b(h1) - tail_slope h1`` in place of ``m1`` was tried too: it
+straightens the ridge ``m1 h1 ~ const`` of a tail that starts below the rows, but mixed
+worse on B.1 and B.5; benchmarks/README.md, twelfth pass.)
+
 Thesis discrepancies found and handled here:
 
 * eq 4.11 as printed is discontinuous at ``H_m = 5``: the cubic piece gives
@@ -40,9 +66,12 @@ __all__ = [
     "CubicHc",
     "WIDEST_LOOP_MARGIN",
     "cubic_width",
+    "cubic_law",
+    "cubic_shape",
     "cubic_from_kennelly",
     "ks_magnet_steel_hc",
     "KS_MAGNET_STEEL",
+    "KS_MAGNET_STEEL_SHAPE",
 ]
 
 #: Eq 4.11 (K-S magnet steel, thesis field units) in the parameters of :func:`cubic_width`.
@@ -83,6 +112,55 @@ def cubic_width(amplitude, alpha, beta, h0, h1, tail_slope):
         return np.maximum(alpha * (h - h0) - beta * h**3, 0.0)
 
     return np.where(A <= h1, cubic(A), cubic(h1) + tail_slope * (A - h1))
+
+
+def cubic_law(h1, m1, tail_slope, h0_ratio, bend):
+    """Eq 4.8's constants from the fitted coordinates of :class:`CubicHc`.
+
+    Returns ``{"alpha", "beta", "h0", "h1", "tail_slope"}`` for :func:`cubic_width`:
+    ``alpha = m1/((1 - h0_ratio)(1 - bend))``, ``h0 = h0_ratio h1``,
+    ``beta = bend m1/((1 - bend) h1^2)``, so that ``b(h1) = m1 h1`` (module docstring).
+    Needs ``h0_ratio < 1`` and ``bend < 1``.
+
+    Examples
+    --------
+    >>> law = cubic_law(**KS_MAGNET_STEEL_SHAPE)
+    >>> print({n: round(float(v), 12) for n, v in law.items()})
+    {'alpha': 0.6, 'beta': 0.0075, 'h0': 0.5, 'h1': 5.0, 'tail_slope': 0.04}
+    """
+    h1, m1, tail_slope, h0_ratio, bend = (
+        np.asarray(v, float) for v in (h1, m1, tail_slope, h0_ratio, bend)
+    )
+    return {
+        "alpha": m1 / ((1.0 - h0_ratio) * (1.0 - bend)),
+        "beta": bend * m1 / ((1.0 - bend) * h1**2),
+        "h0": h0_ratio * h1,
+        "h1": h1,
+        "tail_slope": tail_slope,
+    }
+
+
+def cubic_shape(alpha, beta, h0, h1, tail_slope):
+    """Inverse of :func:`cubic_law`: the coordinates of :class:`CubicHc` of eq 4.8's law.
+
+    Needs ``0 <= h0 < h1`` and ``b(h1) = alpha (h1 - h0) - beta h1^3 > 0`` (the family
+    :class:`CubicHc` fits).
+    """
+    alpha, beta, h0, h1, tail_slope = (
+        np.asarray(v, float) for v in (alpha, beta, h0, h1, tail_slope)
+    )
+    rise = alpha * (h1 - h0)
+    return {
+        "h1": h1,
+        "m1": (rise - beta * h1**3) / h1,
+        "tail_slope": tail_slope,
+        "h0_ratio": h0 / h1,
+        "bend": beta * h1**3 / rise,
+    }
+
+
+#: :data:`KS_MAGNET_STEEL` in the coordinates of :class:`CubicHc` (:func:`cubic_shape`).
+KS_MAGNET_STEEL_SHAPE = {n: float(v) for n, v in cubic_shape(**KS_MAGNET_STEEL).items()}
 
 
 def ks_magnet_steel_hc(hm):
@@ -143,9 +221,12 @@ WIDEST_LOOP_MARGIN = 0.01
 class CubicHc(HysteresisModel):
     """Fig 4.2 loop with the cubic coercive-force width law of eqs 4.8 and 4.11.
 
+    Fitted in ``(k, c, h1, m1, tail_slope, h0_ratio, bend)``; eq 4.8's ``alpha``, ``beta``
+    and ``h0`` follow from :func:`cubic_law` (module docstring: why).
+
     Examples
     --------
-    >>> N = CubicHc.describing_function(np.array([0.3, 2.0]), k=1.0, c=np.inf, **KS_MAGNET_STEEL)
+    >>> N = CubicHc.describing_function(np.array([0.3, 2.0]), k=1.0, c=np.inf, **KS_MAGNET_STEEL_SHAPE)
     >>> print(np.round(N, 6))                  # dead zone: linear gain; then m = 0.42
     [1.  +0.j      0.58-0.26738j]
     """
@@ -154,41 +235,11 @@ class CubicHc(HysteresisModel):
     title = "Fig 4.2 loop, width from a cubic coercive-force law with dead zone and tail"
     equations = "eqs 4.6, 4.7 with 4.8 and 4.11 (made continuous); 4.9, 4.10 for alpha, beta"
     # The width clips at the widest loop (m = 1) and the width law has three joints:
-    # chi-square has kinks and ledges. With 6 starts the polishes can all end far above the
-    # best basin on Deltamax (B.5, seeds 0/1/2: 4492/23377/4072, 24 starts 4474/4162/4015).
+    # chi-square has kinks and ledges, and the usual few starts can all miss the best basin.
     start_multiple = 4
     params = (
         K_SPEC,
         C_SPEC,
-        ParamSpec(
-            "alpha",
-            0.1,
-            (1e-3, 10.0),
-            unit="1",
-            description="initial slope of the coercive current vs amplitude",
-            equation="eq 4.8 (alpha = 1/a, eq 4.9)",
-            log=True,
-        ),
-        ParamSpec(
-            "beta",
-            1e5,
-            (1e-2, 1e12),
-            unit="A^-2",
-            description="cubic bending of the coercive-current law",
-            equation="eq 4.8 (eq 4.10)",
-            log=True,
-            quantity="per_current_squared",
-        ),
-        ParamSpec(
-            "h0",
-            1e-5,
-            (1e-8, 1e-2),
-            unit="A",
-            description="end of the dead zone (loop without width below it)",
-            equation="eq 4.11 (0.5)",
-            log=True,
-            quantity="current",
-        ),
         ParamSpec(
             "h1",
             3e-4,
@@ -200,6 +251,15 @@ class CubicHc(HysteresisModel):
             quantity="current",
         ),
         ParamSpec(
+            "m1",
+            0.1,
+            (1e-4, 10.0),
+            unit="1",
+            description="relative loop width b(h1)/h1 where the tail starts (above 1: the widest loop there)",
+            equation="eq 4.2's m at h1 (eq 4.11: 1.7625/5)",
+            log=True,
+        ),
+        ParamSpec(
             "tail_slope",
             1e-3,
             (1e-6, 1.0),
@@ -208,28 +268,46 @@ class CubicHc(HysteresisModel):
             equation="eq 4.11 (0.04)",
             log=True,
         ),
+        ParamSpec(
+            "h0_ratio",
+            0.03,
+            (1e-5, 0.95),
+            unit="1",
+            description="end of the dead zone as a fraction of h1, h0/h1 (loop without width below h0)",
+            equation="eq 4.11 (0.5/5)",
+            log=True,
+        ),
+        ParamSpec(
+            "bend",
+            0.1,
+            (0.0, 0.95),
+            unit="1",
+            description="fraction of the linear rise alpha (h1 - h0) that the cubic term beta h1^3 takes back at h1",
+            equation="eq 4.8 (eq 4.11: 0.9375/2.7)",
+        ),
     )
 
     @classmethod
-    def _m(cls, A, alpha, beta, h0, h1, tail_slope):
-        b = cubic_width(A, alpha, beta, h0, h1, tail_slope)
+    def _m(cls, A, h1, m1, tail_slope, h0_ratio, bend):
+        law = cubic_law(h1, m1, tail_slope, h0_ratio, bend)
+        b = cubic_width(A, **law)
         # A = 0: b/A -> 0 inside the dead zone (h0 > 0), -> alpha when h0 = 0
-        m0 = np.where(np.asarray(h0) > 0.0, 0.0, alpha)
+        m0 = np.where(np.asarray(h0_ratio) > 0.0, 0.0, law["alpha"])
         return np.clip(ratio(b, A, m0), 0.0, 1.0)
 
     @classmethod
-    def limit_warnings(cls, amplitude, *, alpha, beta, h0, h1, tail_slope, **_):
+    def limit_warnings(cls, amplitude, *, h1, m1, tail_slope, h0_ratio, bend, **_):
         """Rows whose eq 4.8 width reaches the widest Fig 4.2 loop, ``b(A) >= A``.
 
         ``m = b/A`` is clipped at 1 (a loop as wide as the input swing; eqs 4.6/4.7 at
-        ``m = 1``), so where the law asks for more, the clip sets the loop and ``alpha``,
-        ``beta`` are bounded by the data only from one side. The likelihood has a kink
-        along ``m = 1``: a posterior that sits there (the square-loop Deltamax blocks B.2
-        and B.5, with ``alpha`` ~ 1) is one that random-walk and independence moves
-        explore slowly, so this names the cause of such a chain's slow mixing.
+        ``m = 1``), so where the law asks for more, the clip sets the loop and the width
+        law is bounded by the data only from one side. The likelihood has a kink along
+        ``m = 1``: a posterior that sits there (the square-loop Deltamax blocks B.2 and
+        B.5) is one that random-walk and independence moves explore slowly, so this names
+        the cause of such a chain's slow mixing.
         """
         A = np.asarray(amplitude, float).ravel()
-        b = cubic_width(A, alpha, beta, h0, h1, tail_slope)
+        b = cubic_width(A, **cubic_law(h1, m1, tail_slope, h0_ratio, bend))
         widest = (A > 0) & (b >= (1.0 - WIDEST_LOOP_MARGIN) * A)
         if not widest.any():
             return []
@@ -238,25 +316,25 @@ class CubicHc(HysteresisModel):
             f"the cubic width law reaches the widest loop (b(A) >= {1 - WIDEST_LOOP_MARGIN:g} A) "
             f"at {int(widest.sum())} of {A.size} rows (peak currents {lo:.3g}..{hi:.3g} A): "
             "m = b/A is clipped at 1 there (a loop as wide as the input swing), where the DF's "
-            "in-phase part, k (1 - m) below saturation, vanishes; those rows bound alpha and "
-            "beta from one side only, and the likelihood has a kink along m = 1, on which "
+            "in-phase part, k (1 - m) below saturation, vanishes; those rows bound the width "
+            "law from one side only, and the likelihood has a kink along m = 1, on which "
             "MCMC mixes slowly"
         ]
 
     @classmethod
     def ascending_branch(
-        cls, x, amplitude, frequency=0.0, *, k, c, alpha, beta, h0, h1, tail_slope
+        cls, x, amplitude, frequency=0.0, *, k, c, h1, m1, tail_slope, h0_ratio, bend
     ):
         """Rising branch of the Fig 4.2 loop with ``b = m(A) A``, ``m`` from :func:`cubic_width`."""
         A = np.asarray(amplitude, float)
-        m = cls._m(A, alpha, beta, h0, h1, tail_slope)
+        m = cls._m(A, h1, m1, tail_slope, h0_ratio, bend)
         return fig42_branch(
             np.asarray(x, float), A, np.asarray(k, float), m * A, np.asarray(c, float)
         )
 
     @classmethod
     def describing_function(
-        cls, amplitude, frequency=0.0, *, k, c, alpha, beta, h0, h1, tail_slope
+        cls, amplitude, frequency=0.0, *, k, c, h1, m1, tail_slope, h0_ratio, bend
     ):
         """Closed-form ``N(A)``: eqs 4.6/4.7 (2.6/2.8 when ``k b > c``) with ``m = b(A)/A``.
 
@@ -268,8 +346,8 @@ class CubicHc(HysteresisModel):
             Ignored, but broadcast into the result's shape.
         k, c : array_like
             Slope (H) and saturation level (V s; ``np.inf``: never saturates).
-        alpha, beta, h0, h1, tail_slope : array_like
-            Width law, see :func:`cubic_width`.
+        h1, m1, tail_slope, h0_ratio, bend : array_like
+            Width law, see :func:`cubic_law` and :func:`cubic_width`.
 
         Returns
         -------
@@ -279,6 +357,6 @@ class CubicHc(HysteresisModel):
         """
         A = np.asarray(amplitude, float)
         k = np.asarray(k, float)
-        m = cls._m(A, alpha, beta, h0, h1, tail_slope)
+        m = cls._m(A, h1, m1, tail_slope, h0_ratio, bend)
         r = ratio(np.asarray(c, float), k * A, np.inf)
         return with_frequency_shape(fig42_df(k, r, m), frequency)

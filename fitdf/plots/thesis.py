@@ -17,7 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from fitdf.models.cubic_hc import KS_MAGNET_STEEL, CubicHc, cubic_width, ks_magnet_steel_hc
+from fitdf.models.cubic_hc import (
+    KS_MAGNET_STEEL,
+    KS_MAGNET_STEEL_SHAPE,
+    CubicHc,
+    cubic_width,
+    ks_magnet_steel_hc,
+)
 from fitdf.models.proportional_width import (
     ProportionalWidth,
     ProportionalWidthFig42,
@@ -218,7 +224,7 @@ def graph_4_7(c=KS_SATURATION_C):
     ``A = 6.84``.) Top: ``|N|``, ``Re N``, ``Im N``; bottom: phase. Two axes.
     """
     A = np.linspace(0.02, 20.0, 2000)
-    N = CubicHc.describing_function(A, k=K, c=c, **KS_MAGNET_STEEL)
+    N = CubicHc.describing_function(A, k=K, c=c, **KS_MAGNET_STEEL_SHAPE)
     fig, axes = new_figure(FIGSIZE, 2, 1, sharex=True)
     top, bottom = axes.ravel()
     top.plot(A, np.abs(N), label="|N|")
