@@ -38,6 +38,9 @@ TRUTH = {
     ),
 }
 
+#: CubicHc's width-law coordinates (its parameters other than k and c).
+LAW = ("h1", "m1", "tail_slope", "h0_ratio", "bend")
+
 
 def synthetic(model, seed=0, chain=DEFAULT_CHAIN):
     values, _ = TRUTH[model]
@@ -368,10 +371,6 @@ def test_fit_names_the_rows_where_the_width_law_reaches_the_widest_loop():
         n_starts=1,
     )
     assert not any("widest loop" in w for w in plain.warnings)
-
-
-#: CubicHc's width-law coordinates (its parameters other than k and c).
-LAW = ("h1", "m1", "tail_slope", "h0_ratio", "bend")
 
 
 def test_a_budget_spent_at_the_polish_last_evaluation_ends_it_there():
