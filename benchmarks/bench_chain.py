@@ -1,0 +1,66 @@
+"""One report chain at a time: least squares, then MCMC with the report's settings.
+
+Run:  python benchmarks/bench_chain.py B.5:cubic_hc [B.1:preisach ...] [--seed 0]
+
+For each ``block:law`` (a report block, ``permalloy-joint`` and ``deltamax-joint`` included)
+it fits the law by least squares as the report does, then runs the report's MCMC job on it
+(the same ``n_steps``, ``max_steps``, ``extend_steps`` and checks, ``fitdf.report.build``),
+and prints the chain's length, steps over its largest autocorrelation time, largest R-hat,
+smallest bulk ESS, mean acceptance, whether it meets the convergence rule, and the seconds
+of each stage. Same seed, same numbers as the report's chain (the jobs are deterministic):
+this is how a change to a law's coordinates or to the sampler is measured chain by chain
+before a full report (benchmarks/README.md, twelfth pass). No thresholds: numbers only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from fitdf.report.build import BLOCKS, ReportSettings, _job_lsq, _job_mcmc
+
+
+def run(block_key: str, law: str, seed: int, settings: ReportSettings) -> None:
+    blocks = {b.key: b for b in BLOCKS}
+    if block_key not in blocks:
+        raise SystemExit(f"unknown block {block_key!r}; choose from {', '.join(blocks)}")
+    block = blocks[block_key]
+    t0 = time.perf_counter()
+    lsq = _job_lsq(block.data, law, seed, settings.n_starts, settings.chain)
+    t1 = time.perf_counter()
+    post = _job_mcmc(
+        lsq, seed, settings.n_steps, settings.n_walkers, settings.max_steps, settings.extend_steps
+    )
+    t2 = time.perf_counter()
+    d = post.diagnostics
+    rhat, ess = max(d["rhat"].values()), min(d["ess_bulk"].values())
+    print(
+        f"{block_key:<16s} {law:<15s} {lsq.metrics['chi2']:>9.1f} {t1 - t0:>6.1f}s "
+        f"{d['n_steps']:>6d} {d['steps_over_tau']:>9.1f} {rhat:>8.3f} "
+        f"{ess:>7.0f} {d['acceptance_mean']:>6.3f} "
+        f"{'yes' if d['converged'] else 'no':>9s} {t2 - t1:>7.1f}s",
+        flush=True,
+    )
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("chains", nargs="+", metavar="BLOCK:LAW")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    settings = ReportSettings.for_run()
+    print(
+        f"{'block':<16s} {'law':<15s} {'lsq chi2':>9s} {'lsq':>7s} {'steps':>6s} "
+        f"{'steps/tau':>9s} {'R-hat':>8s} {'ESS':>7s} {'accept':>6s} {'converged':>9s} {'mcmc':>8s}"
+    )
+    for spec in args.chains:
+        block_key, _, law = spec.partition(":")
+        run(block_key, law, args.seed, settings)
+
+
+if __name__ == "__main__":
+    main()
