@@ -4,7 +4,7 @@ Run:  python benchmarks/bench_chain.py B.5:cubic_hc [B.1:preisach ...] [--seed 0
 
 For each ``block:law`` (a report block, ``permalloy-joint`` and ``deltamax-joint`` included)
 it fits the law by least squares as the report does, then runs the report's MCMC job on it
-(the same ``n_steps``, ``max_steps``, ``extend_steps`` and checks, ``fitdf.report.build``),
+(the same ``n_steps``, step limits of the law, ``ReportSettings.step_limits``, and checks),
 and prints the chain's length, steps over its largest autocorrelation time, largest R-hat,
 smallest bulk ESS, mean acceptance, whether it meets the convergence rule, and the seconds
 of each stage. Same seed, same numbers as the report's chain (the jobs are deterministic):
@@ -32,9 +32,7 @@ def run(block_key: str, law: str, seed: int, settings: ReportSettings) -> None:
     t0 = time.perf_counter()
     lsq = _job_lsq(block.data, law, seed, settings.n_starts, settings.chain)
     t1 = time.perf_counter()
-    post = _job_mcmc(
-        lsq, seed, settings.n_steps, settings.n_walkers, settings.max_steps, settings.extend_steps
-    )
+    post = _job_mcmc(lsq, seed, settings.n_steps, settings.n_walkers, *settings.step_limits(law))
     t2 = time.perf_counter()
     d = post.diagnostics
     rhat, ess = max(d["rhat"].values()), min(d["ess_bulk"].values())

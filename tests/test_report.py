@@ -301,6 +301,7 @@ def test_same_seed_same_numbers(tmp_path, stub_figures):
         n_steps=20,
         max_steps=20,
         extend_steps=None,
+        closed_form_step_factor=1,
         n_walkers=16,
         cv_top=1,
         cv_starts=1,
@@ -324,6 +325,19 @@ def test_quick_settings_keep_the_ranking_configuration():
     assert ReportSettings.for_run(methods=("lsq",)).mcmc_top == 0
     with pytest.raises(Exception, match="methods"):
         ReportSettings.for_run(methods=("mcmc",))
+
+
+def test_closed_form_laws_get_longer_chains():
+    s = ReportSettings.for_run()
+    factor = s.closed_form_step_factor
+    assert factor > 1
+    assert s.step_limits("cubic_hc") == (factor * s.max_steps, factor * s.extend_steps)
+    assert s.step_limits("constant_width") == (factor * s.max_steps, factor * s.extend_steps)
+    # the laws integrated numerically or stepped keep the common limits
+    for law in ("preisach", "rayleigh", "jiles_atherton"):
+        assert s.step_limits(law) == (s.max_steps, s.extend_steps)
+    no_extension = ReportSettings(extend_steps=None)
+    assert no_extension.step_limits("cubic_hc") == (factor * s.max_steps, None)
 
 
 @pytest.mark.slow
@@ -444,6 +458,9 @@ def test_settings_line_states_the_mcmc_and_cv_that_ran():
         and f"{settings['extend_steps']} for a chain" in line
     )
     assert "not sampled: `jiles_atherton`" in line
+    assert (
+        f"; {settings['closed_form_step_factor']} times as many for the laws in closed form" in line
+    )
     assert "each fold polished from the block's optimum" in line
     quick = {**settings, "methods": ["lsq"], "cv_starts": 2, "extend_steps": None}
     (_, items), *_ = outline._settings_text(

@@ -17,6 +17,7 @@ TINY = ReportSettings(
     n_steps=30,  # short chains: the tests read what the report holds, not the posterior
     max_steps=30,
     extend_steps=None,
+    closed_form_step_factor=1,  # proportional_width is in closed form: keep the chain short
     n_walkers=16,
     cv_top=1,
     cross_top=1,

@@ -35,13 +35,15 @@ Sampler
     bound: on constant_width/B.3 one adapted round left the production chains at R-hat 1.5
     (tau ~200), six converge in 2300 steps (tau ~17). It is burn-in and adaptation, and is
     discarded. *Production* continues
-    ``n_chains`` (8) of the pilot's walkers as independent Markov chains with two moves,
-    each half the time (:mod:`fitdf.inference.proposals`): an independence
-    Metropolis-Hastings move whose proposal is a kernel density on the draws of every
-    adapted pilot round (with a defensive Student t), and a random-walk Metropolis move
-    with the last round's covariance at the Gaussian-optimal scale ``2.38^2/d``. The
-    proposals are fixed before production starts, so production is an ordinary Markov
-    chain with the posterior as its stationary law.
+    ``n_chains`` (8) of the pilot's walkers as independent Markov chains with three moves
+    (:mod:`fitdf.inference.proposals`): an independence Metropolis-Hastings move whose
+    proposal is a kernel density on the draws of every adapted pilot round (with a
+    defensive Student t), 40 % of the time; differential evolution on the same draws as a
+    fixed archive (DE-MCz: steps along the posterior's ridges, and between its lobes),
+    40 %; and a random-walk Metropolis move with the last round's covariance at the
+    Gaussian-optimal scale ``2.38^2/d``, 20 %. The proposals are fixed before production
+    starts, so production is an ordinary Markov chain with the posterior as its
+    stationary law.
 
     Why: R-hat compares chains, and needs each of them long (Vehtari et al. 2021: bulk ESS
     of ~100 per chain for R-hat < 1.01), which an ensemble of 20-30 coupled walkers pays for
@@ -649,8 +651,9 @@ def fit_mcmc(
         "pilot_steps": pilot_steps,
         "moves": (
             "pilot (discarded): DE 0.8 + DE snooker 0.2, then the production moves adapted "
-            "to it; production: independent chains, kernel-density independence 0.5 (the "
-            "adapted rounds' draws, defensive t) + random walk 0.5 (the last round's covariance)"
+            "to it; production: independent chains, kernel-density independence 0.4 (the "
+            "adapted rounds' draws, defensive t) + differential evolution on those draws 0.4 "
+            "+ random walk 0.2 (the last round's covariance)"
             if adapted
             else "given"
             if pilot_steps > 0

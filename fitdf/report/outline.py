@@ -41,7 +41,7 @@ def _settings_text(res) -> list:
     mcmc = (
         "MCMC (emcee: a discarded pilot, then independent chains) for the best {top} "
         "least-squares models of each block{skip}: {w} walkers in the pilot, at least {n} "
-        "production steps, extended until converged up to {mx}{ext}".format(
+        "production steps, extended until converged up to {mx}{ext}{cf}".format(
             top="all" if s["mcmc_top"] is None else s["mcmc_top"],
             skip=(
                 " (not sampled: " + ", ".join(f"`{m}`" for m in s["mcmc_skip"]) + ")"
@@ -54,6 +54,12 @@ def _settings_text(res) -> list:
             ext=(
                 f" ({s['extend_steps']} for a chain that mixes but is short of R-hat or ESS)"
                 if s.get("extend_steps")
+                else ""
+            ),
+            cf=(
+                f"; {s['closed_form_step_factor']} times as many for the laws in closed form "
+                "(cheaper per step)"
+                if s.get("closed_form_step_factor", 1) != 1
                 else ""
             ),
         )
