@@ -137,7 +137,7 @@ class ReportSettings:
     closed_form_step_factor : int
         ``max_steps`` and ``extend_steps`` are this many times longer for the laws whose
         describing function is in closed form (``HysteresisModel.closed_form``): through the
-        exact chain they cost 1-3 ms per parameter set against Preisach's 4-10 ms, so the
+        exact chain they cost 0.9-3.3 ms per parameter set against Preisach's 3.5-10 ms, so the
         same time buys them more steps. Of those laws only cubic_hc needs them: its kinked
         posterior (the joint ``h1`` between rows) mixes slowly, and on B.1 it converged at
         14400 steps (benchmarks/README.md, thirteenth pass); the others converge within
