@@ -1,8 +1,8 @@
 """Proposals of the MCMC production chains: a kernel-density independence move, differential
 evolution on an archive, and a random walk.
 
-Both act on each walker alone (no ensemble move), so the production walkers are
-independent Markov chains, which R-hat compares; both are fixed before production starts,
+All three act on each walker alone (no ensemble move), so the production walkers are
+independent Markov chains, which R-hat compares; all are fixed before production starts,
 so each chain is an ordinary Metropolis-Hastings chain with the posterior as its law.
 
 Why a kernel density and not one Student t: the posteriors here are skewed and have side
