@@ -44,6 +44,13 @@ def _jitter(cov):
     return 1e-12 * np.eye(d) * max(np.trace(cov) / d, 1e-300)
 
 
+def _subsample(draws, n, rng):
+    """At most ``n`` of the rows of ``draws``, chosen with ``rng``, in their order."""
+    if len(draws) <= n:
+        return draws
+    return draws[np.sort(rng.choice(len(draws), n, replace=False))]
+
+
 class StudentTProposal:
     """Independence proposal for :class:`emcee.moves.MHMove`: a multivariate Student t.
 
@@ -95,9 +102,7 @@ class KernelProposal:
     """
 
     def __init__(self, draws, rng, max_centres: int = 2000, defensive: float = 0.1):
-        draws = np.asarray(draws, float)
-        if len(draws) > max_centres:
-            draws = draws[np.sort(rng.choice(len(draws), max_centres, replace=False))]
+        draws = _subsample(np.asarray(draws, float), max_centres, rng)
         k, d = draws.shape
         cov = np.atleast_2d(np.cov(draws, rowvar=False))  # (1, 1) for one parameter
         cov = cov + _jitter(cov)
@@ -145,9 +150,7 @@ class ArchiveDifferentialProposal:
     """
 
     def __init__(self, archive, rng, max_archive: int = 4000, jump: float = 0.1):
-        archive = np.atleast_2d(np.asarray(archive, float))
-        if len(archive) > max_archive:
-            archive = archive[np.sort(rng.choice(len(archive), max_archive, replace=False))]
+        archive = _subsample(np.atleast_2d(np.asarray(archive, float)), max_archive, rng)
         if len(archive) < 2:
             raise ValueError("the archive needs at least two draws")
         self.archive = archive
