@@ -270,6 +270,33 @@ def test_matches_solve_ivp_reference_for_rayleigh(theta, points):
         assert abs(op.current[k] / I - 1) <= 1e-2
 
 
+#: A nearly rectangular constant-width loop (Deltamax at 0 ohm: sides of 1430 H, 13 uA wide,
+#: against a half-width of 0.79 mA), where ``V/R`` lies just above the coercive current and
+#: the steady state sits on the steep side: the DF there is very sensitive to the peak
+#: current (an error of 1e-7 A in ``I_p`` moved the flux by 1e-4 V s).
+STEEP_THETA = [1430.65, 7.914142e-4, 0.0184075]
+STEEP_R = 25.237
+STEEP_POINTS = [(0.02, 10.0), (0.05, 10.0), (0.1, 10.0), (0.2, 10.0), (0.05, 6.0), (0.05, 3.0)]
+
+
+def test_nearly_rectangular_loop_matches_exact_piecewise_reference():
+    # Two faults made the chain's DF wrong by up to 0.29 here (0.008 after the first was
+    # fixed), and a fit exploited them (Deltamax B.2 constant_width: the MCMC's best draw
+    # at chi-square 1008, where the correct DF gives 2373): (1) the flux-form Fourier
+    # coefficients dropped the boundary term of the integration by parts, which is zero
+    # only at the exact root, so the search's trial amplitudes carried an offset of
+    # ``B'(I) G / 2``; (2) nodes placed at a coarse root inside the dead zone (``I < b``:
+    # no loop at all) were kept for amplitudes above ``b``, where the steep side fell
+    # inside one cell.
+    model = get_model("constant_width")
+    V, f = (np.array(c) for c in zip(*STEEP_POINTS))
+    op = VoltageChain.operating_point(model, V, f, 0.0, STEEP_THETA, [STEEP_R, 1.0])
+    for k in range(V.size):
+        ref, I = reference_piecewise(model, STEEP_THETA, V[k], f[k], STEEP_R)
+        assert abs(op.df[k] - ref) <= 3e-4, (STEEP_POINTS[k], op.df[k], ref)
+        assert abs(op.current[k] / I - 1) <= 1e-3
+
+
 def test_reference_agrees_with_itself():
     # the two references meet where both apply: Rayleigh without hysteresis (gamma -> 0) and
     # without saturation is the linear inductor mu0, i.e. constant_width with b = 0, c huge

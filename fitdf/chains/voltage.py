@@ -32,7 +32,12 @@ boundary term cancels, ``lambda`` and ``sin`` both change sign over half a perio
 ``DF = gain j w Lambda_1 / V``, ``Lambda_1 = (2/pi) int lambda (sin + j cos) d(wt)``
 (trapezoid rule on the steps): the flux is the smooth variable (the current jumps onto
 saturation flats; ``V = R I_1 + j w Lambda_1`` for the exact solution, and the current
-form loses digits when ``DF`` is small). The scheme's EMF at the nodes is BDF2's
+form loses digits when ``DF`` is small). The flux is measured from the midpoint of its
+values at the two ends of the half period: that is the by-parts boundary term, zero at
+the exact root but ``B'(I) G / 2`` at every amplitude the search tries, which on the
+steep side of a nearly rectangular loop (``B'`` ~ 10^3 H) moved the DF by order 1 for a
+``G`` of 1e-7 A; with it the coefficients are those of the EMF of the trajectory
+computed, smooth in ``I_p``. The scheme's EMF at the nodes is BDF2's
 difference quotient of the flux, whose response to ``exp(j theta)`` is ``1 + 8.9e-5``
 times the derivative's at 192 steps; multiplying by that factor removes the leading
 dispersion error.
@@ -42,7 +47,12 @@ dispersion error.
 bending, from a uniform table of ``placement_nodes`` and again from the table that gives
 (and up to three more times where one cell still holds a fifth of the flux swing: an
 almost rectangular loop, whose narrow step moves in ``u = i / I_p`` as ``I_p`` changes,
-so those points are placed anew at every amplitude tried). The table is made monotone (a
+so those points are placed anew at every amplitude tried). Nodes are also placed anew
+wherever, at the amplitude tried, one cell holds more than a fifth of the swing and 1.5
+times the largest share it had where they were placed: the loop changed shape under
+them (nodes placed inside a dead zone, ``I_p`` below the coercive current, resolve no
+loop at all; a steep side opening as ``I_p`` passes it widens by far more than
+``dI_p / I_p``). The table is made monotone (a
 falling part, e.g. the Fig 4.2 loop with ``m > 0.5``, becomes a flat: the flux cannot
 fall while the current rises, the current jumps) and refined: each cell is split at the
 exact kink when the cells on both sides are straight (piecewise-linear laws are then
@@ -166,11 +176,13 @@ class _Points:
         B = law(x, a[:, None], self.f[idx, None], **kw)
         return np.ascontiguousarray(np.broadcast_to(B, x.shape), dtype=float)
 
-    def run(self, idx, a, u, steps, refine_factor, rough=False):
-        """Kernel on tables at nodes ``u`` (``(m, M)`` or ``(M,)``): ``(G, DF without gain, B)``."""
+    def run(self, idx, a, u, steps, refine_factor, rough=False, B=None):
+        """Kernel on tables at nodes ``u`` (``(m, M)`` or ``(M,)``): ``(G, DF without gain, B)``;
+        ``B``, if given, is the branch at those nodes (already evaluated)."""
         u = np.broadcast_to(u, (idx.size, np.shape(u)[-1]))
         x = np.ascontiguousarray(a[:, None] * u)
-        B = self.branch(idx, x, a, rough)
+        if B is None:
+            B = self.branch(idx, x, a, rough)
         V, R = self.V[idx], self.R[idx]
         phi0 = -np.arcsin(np.minimum(R * a / V, 1.0))
         out = np.empty((idx.size, N_OUT))
@@ -421,17 +433,36 @@ def _solve(model, V, f, R, kw, initial, st: VoltageSettings):
     u2, narrow = _place(pts, live, Ic, st)
     u_fine[live] = u2
     placed_at = Ic.copy()
+    placed_share = np.full(live.size, np.nan)  # largest flux share of a cell where placed
 
     def fine(sub, x):
-        u = u2[sub]
-        # (a step of relative width w in u moves by about u dI/I: re-place beyond 1e-3)
-        moving = np.flatnonzero(narrow[sub] & (np.abs(x / placed_at[sub] - 1) > 1e-3))
+        u = u2[sub].copy()
+        B = pts.branch(live[sub], x[:, None] * u, x)
+        share = _largest_share(B)
+        at_placement = x == placed_at[sub]
+        first = at_placement & np.isnan(placed_share[sub])
+        placed_share[sub[first]] = share[first]
+        # Nodes placed at one amplitude no longer resolve the loop at another when a
+        # cell now holds a much larger share of the flux swing than any did where they were
+        # placed: the loop changed shape under them (a steep side that opens as ``I``
+        # passes a coercive current moves and widens in ``u`` by far more than ``dI/I``;
+        # nodes placed at a coarse root inside a dead zone resolve no loop at all). And a
+        # step of relative width w in u moves by about u dI/I: re-place beyond 1e-3.
+        reference = np.where(np.isnan(placed_share[sub]), 0.0, placed_share[sub])
+        stale = ~at_placement & (
+            (share > np.maximum(0.2, 1.5 * reference))
+            | (narrow[sub] & (np.abs(x / placed_at[sub] - 1) > 1e-3))
+        )
+        moving = np.flatnonzero(stale)
         if moving.size:
-            u = u.copy()
-            u[moving] = _place(pts, live[sub[moving]], x[moving], st)[0]
-            u2[sub[moving]] = u[moving]
-            placed_at[sub[moving]] = x[moving]
-        g, d, _ = pts.run(live[sub], x, u, st.steps, st.refine_factor)
+            targets = sub[moving]
+            u[moving], narrow[targets] = _place(pts, live[targets], x[moving], st)
+            B = B.copy()  # (the branch may hand back a read-only broadcast)
+            B[moving] = pts.branch(live[targets], x[moving, None] * u[moving], x[moving])
+            u2[targets] = u[moving]
+            placed_at[targets] = x[moving]
+            placed_share[targets] = _largest_share(B[moving])
+        g, d, _ = pts.run(live[sub], x, u, st.steps, st.refine_factor, B=B)
         return g, d
 
     slope0 = np.where(np.isfinite(slope_c) & (slope_c < 0), slope_c, -2.0)

@@ -78,9 +78,13 @@ DEDUP_TOL = 1e-6
 #: points a hair apart: differences over 1e-9 measured that, not the slope, and the
 #: refinement stalled short of roots that exist (B.1 constant_width in the plant
 #: ``K/((1+s)(1+0.25s)(1+1.1s))``: cycles at gains 45 and 150, none found at 60-120).
-#: 1e-4 is far above that and far below the scale on which ``F`` bends; the roots still
-#: converge to ~1e-15 (the Jacobian only steers, the residual is exact).
-REFINE_DIFF_STEP = 1e-4
+#: At the edge of a saturation jump the DF also steps by ~1e-4 between amplitudes 2e-4
+#: apart (B.1 proportional_width, 0 ohm, ``A`` 2.35 V at 1.8 Hz), and differences over 1e-4
+#: stalled there at a residual of 5e-3 (the cycle at gain 87.6 of the thesis plant, time
+#: scale 2.5, was lost); 1e-3 is far above both and still far below the scale on which
+#: ``F`` bends; the roots converge to ~1e-15 (the Jacobian only steers, the residual is
+#: exact).
+REFINE_DIFF_STEP = 1e-3
 #: Iterations of the refinement at most (each: a Jacobian and one or more trial steps).
 REFINE_MAX_ITER = 100
 #: Trial steps per iteration (``lambda`` grows 4x between them) before a start is taken as
