@@ -297,6 +297,20 @@ def test_nearly_rectangular_loop_matches_exact_piecewise_reference():
         assert abs(op.current[k] / I - 1) <= 1e-3
 
 
+def test_root_approached_from_one_side_is_confirmed_by_another_pair():
+    # B.5 proportional_width near its fit, 600 ohm, 6 V at 30 Hz: the fine search's first
+    # two evaluations both have G > 0, and G's slope between them is 5x its slope at the
+    # root. Their side's pair is the same two points, so it "confirmed" their slope, and
+    # the search stopped 0.6 % short of the root: DF off by 5.5e-4 (the coarse stage's
+    # slope disagreed, and does confirm the pair two steps later).
+    model = get_model("proportional_width")
+    theta, r_w = [29.7726095, 0.0282046243, 0.418725095], 16.5067625
+    op = VoltageChain.operating_point(model, 6.0, 30.0, 600.0, theta, [r_w, 1.0])
+    ref, I = reference_piecewise(model, theta, 6.0, 30.0, 600.0 + r_w)
+    assert abs(op.df[0] - ref) <= 3e-4, (op.df[0], ref)
+    assert abs(op.current[0] / I - 1) <= 2e-3
+
+
 def test_reference_agrees_with_itself():
     # the two references meet where both apply: Rayleigh without hysteresis (gamma -> 0) and
     # without saturation is the linear inductor mu0, i.e. constant_width with b = 0, c huge

@@ -427,7 +427,14 @@ def secant_update(act, xs, gs, ds, it, X, G, D, F, C, done, tol, max_step, df_to
         rH, sH, dH = _pair(X, G, D, p, _H1, _H2)
         jump = False
         confirmed = False
-        for sr in (sL, sH, slope0):
+        # A slope confirms the last two evaluations' only if it comes from another pair: a
+        # side's newest two are the same two when both evaluations fell on that side (G
+        # approached from one side), and would confirm any curvature; the pair followed
+        # in the step before (``F[p, 8]``, still unchanged here) then tells instead.
+        same_L = X[p, _L1] == X[p, _A1] and X[p, _L2] == X[p, _A2]
+        same_H = X[p, _H1] == X[p, _A1] and X[p, _H2] == X[p, _A2]
+        previous = F[p, 8] if it > 1 else np.nan
+        for sr in (np.nan if same_L else sL, np.nan if same_H else sH, slope0, previous):
             if np.isfinite(sr) and np.isfinite(sA):
                 if sr / sA > 0 and abs(np.log(sr / sA)) <= np.log(2.0):
                     confirmed = True
@@ -459,8 +466,11 @@ def secant_update(act, xs, gs, ds, it, X, G, D, F, C, done, tol, max_step, df_to
                 # by 10x where the DF is sensitive, e.g. at the edge of a dead zone)
                 conv = False
             else:
+                unconfirmed_pair = use == _A1 or (use == _L1 and same_L) or (use == _H1 and same_H)
                 conv = (
-                    close and abs(x1 - x2) <= 0.05 * x1 and (use != _A1 or confirmed or not confirm)
+                    close
+                    and abs(x1 - x2) <= 0.05 * x1
+                    and (not unconfirmed_pair or confirmed or not confirm)
                 )
             F[p, 8] = sr_
             if np.isfinite(x2) and x1 != x2:

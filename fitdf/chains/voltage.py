@@ -327,8 +327,8 @@ def _search(
     or ``G / 2`` (exact for a linear core behind a small ``R``); until the bracket has both
     ends, steps are at most ``max_step x``.
     Then the secant root of the last two evaluations, if it lies in the bracket and their
-    slope agrees within a factor 2 with those of the two newest points of each side and
-    ``slope0``. Otherwise -- ``G`` jumps between them, as where the steady state's peak is
+    slope agrees within a factor 2 with the other pairs' (the two newest points of each
+    side, the pair followed the step before, ``slope0``). Otherwise -- ``G`` jumps between them, as where the steady state's peak is
     a jump onto a saturation flat: ``G`` tends to 0 from one side of the edge only -- the
     secant root of the two newest points of the side whose newest ``|G|`` is smaller (it
     extrapolates to the edge), else of the other side; a bisection if these leave the
@@ -340,10 +340,13 @@ def _search(
     pair's newer point, the pair spans at most 5 %, the linear DF correction from that
     point to ``r`` is at most ``df_tol`` (the interpolation error, ``DF''/2`` times the
     distances to both points, is then a fraction of it) and, for the last two evaluations
-    (if ``confirm``), their slope is confirmed by a side's or ``slope0``. One evaluation
-    never suffices: slopes from a coarser stage can be off by 10x where the DF is
-    sensitive (at the edge of a dead zone). Also when ``G = 0``, or the bracket is narrower than ``tol / 8``, or than ``tol`` with DFs at
-    its ends within ``2 df_tol`` (DF linear between its ends).
+    (if ``confirm``), their slope is confirmed by another pair's (within a factor 2): a
+    side's newest two, unless they are these two (both on one side: ``G`` approached from
+    one side, where its curvature goes unseen), the pair followed the step before, or
+    ``slope0``. One evaluation never suffices: slopes from a coarser stage can be off by
+    10x where the DF is sensitive (at the edge of a dead zone). Also when ``G = 0``, or
+    the bracket is narrower than ``tol / 8``, or than ``tol`` with DFs at its ends within
+    ``2 df_tol`` (DF linear between its ends).
 
     Returns ``(root, DF at the root, slope of G, slope of DF, lower end of the bracket)``;
     the slopes are those of the pair followed last (for a following stage).
