@@ -96,7 +96,9 @@ hair apart: finite-difference Jacobians need steps above that.
 Accuracy and speed are measured in ``benchmarks/bench_voltage.py`` and listed in
 ``benchmarks/README.md`` ("The voltage chain"): with the defaults ``|DF - DF_exact|`` is
 at most ~2e-4 for every registered law at 0 and 600 ohm (against exact piecewise-linear
-integration and ``solve_ivp``, ``tests/test_voltage_chain.py``).
+integration and ``solve_ivp``, ``tests/test_voltage_chain.py``); at the report's own fits of
+the piecewise-linear laws and around them (Deltamax's nearly rectangular loops included)
+at most 5e-4 (``benchmarks/audit_voltage_fits.py``).
 """
 
 from __future__ import annotations
@@ -328,8 +330,9 @@ def _search(
     ends, steps are at most ``max_step x``.
     Then the secant root of the last two evaluations, if it lies in the bracket and their
     slope agrees within a factor 2 with the other pairs' (the two newest points of each
-    side, the pair followed the step before, ``slope0``). Otherwise -- ``G`` jumps between them, as where the steady state's peak is
-    a jump onto a saturation flat: ``G`` tends to 0 from one side of the edge only -- the
+    side, the pair followed the step before, ``slope0``). Otherwise -- ``G`` jumps between
+    them, as where the steady state's peak is a jump onto a saturation flat: ``G`` tends
+    to 0 from one side of the edge only -- the
     secant root of the two newest points of the side whose newest ``|G|`` is smaller (it
     extrapolates to the edge), else of the other side; a bisection if these leave the
     bracket; else regula falsi with the Illinois halving, or log-bisection while the
