@@ -197,6 +197,26 @@ def test_warm_start_also_polishes_the_screens_best_points(monkeypatch):
     assert only.info["n_starts"] == 1 and only.info["n_screen"] == 0
 
 
+def test_a_fit_without_uncertainties_has_the_same_optimum_and_skips_the_covariance(monkeypatch):
+    """Cross-validation folds read only the optimum: ``uncertainties=False`` saves the
+    covariance's ``2 P + 1`` evaluations and changes nothing else."""
+    from fitdf.inference import lsq
+    from fitdf.inference.lsq import fit_lsq
+
+    problem = FitProblem(resolve_data("B.1"), "constant_width", "winding")
+    full = fit_lsq(problem, seed=0, n_starts=2)
+    calls = []
+    monkeypatch.setattr(lsq, "covariance", lambda *a: calls.append(a))
+    bare = fit_lsq(problem, seed=0, n_starts=2, uncertainties=False)
+    # (the polish's merge test still asks for the first start's covariance, not the result)
+    assert len(calls) == 1
+    np.testing.assert_array_equal(bare.internal, full.internal)
+    assert bare.metrics["chi2"] == full.metrics["chi2"]
+    assert all(np.isnan(v) for v in bare.stderr.values())
+    assert np.isfinite(list(full.stderr.values())).all()
+    assert not any("covariance" in w for w in bare.warnings)
+
+
 def test_a_start_that_reaches_a_known_basin_stops_there(monkeypatch):
     """Later starts stop once within MERGE_CHI2 / MERGE_SIGMAS of an optimum an earlier
     start reached: the same optimum, for fewer evaluations."""

@@ -304,6 +304,7 @@ def fit_lsq(
     max_nfev: int = 400,
     starts=None,
     also_screen: int = 0,
+    uncertainties: bool = True,
 ) -> FitResult:
     """Least-squares fit of ``problem`` (see the module docstring for the strategy).
 
@@ -313,7 +314,9 @@ def fit_lsq(
     ``starts`` (internal vectors, ``(k, P)``), if given, are polished instead of screening
     the box: a warm start, e.g. a cross-validation fold from the full data's optimum.
     With ``starts``, ``also_screen`` more starts come from the screen (a warm start that
-    still looks elsewhere in the box).
+    still looks elsewhere in the box). ``uncertainties=False`` skips the covariance (its
+    ``2 P + 1`` evaluations): for a fit only its optimum is read from, such as a
+    cross-validation fold; the optimum is the same.
 
     Returns
     -------
@@ -351,7 +354,7 @@ def fit_lsq(
     out, x, _ = polished[best]
     n_agree = int(np.sum(costs - costs[best] <= 1.0))
 
-    covar = covariance(problem, x)
+    covar = covariance(problem, x) if uncertainties else None
     stderr, intervals, corr = _uncertainties(problem, x, covar)
     values = {k: float(v) for k, v in problem.full_natural(x).items()}
     predicted = problem.predict(x)
@@ -367,7 +370,7 @@ def fit_lsq(
         + identifiability_warnings(problem, intervals)
         + problem.limit_warnings(x)
     )
-    if covar is None:
+    if covar is None and uncertainties:
         warns.append("covariance matrix not available (singular Jacobian): uncertainties are NaN")
     if not out.success:
         warns.append(f"least squares did not converge: {out.message}")

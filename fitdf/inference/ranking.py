@@ -159,9 +159,9 @@ def cross_validate(result, seed=0, n_starts=None) -> dict:
         if train.data.n <= train.ndim:
             continue
         if n_starts is None:
-            r = fit_lsq(train, seed=seed, starts=result.internal)
+            r = fit_lsq(train, seed=seed, starts=result.internal, uncertainties=False)
         else:
-            r = fit_lsq(train, seed=seed, n_starts=n_starts)
+            r = fit_lsq(train, seed=seed, n_starts=n_starts, uncertainties=False)
         held_rows = d.subset(held)
         pred = r.predict(
             held_rows.amplitude,
@@ -401,7 +401,8 @@ def cross_impedance(
             test, model, chain, fitted.problem.noise, fixed, fitted.problem.geometry
         )
         if target.ndim:
-            calibrated = fit_lsq(target, seed=seed, n_starts=2)
+            # (only the gain is read from it)
+            calibrated = fit_lsq(target, seed=seed, n_starts=2, uncertainties=False)
             pred = target.predict(calibrated.internal)
             gain = {k: v for k, v in calibrated.values.items() if parameter_base(k) in PER_TABLE}
         else:
