@@ -14,6 +14,8 @@ from fitdf.inference.proposals import (
     MOVE_SHARES,
     ArchiveDifferentialProposal,
     KernelProposal,
+    PriorCoordinateProposal,
+    free_columns,
     production_moves,
 )
 
@@ -104,3 +106,59 @@ def test_production_moves_mix_and_sample_the_target():
     assert np.mean(right) == pytest.approx(WEIGHTS[1], abs=0.05)
     np.testing.assert_allclose(flat[right].std(axis=0), SD, rtol=0.15)
     np.testing.assert_allclose(flat[~right].std(axis=0), SD, rtol=0.15)
+
+
+def logistic_target(z):
+    """A standard normal in ``z0`` times, in ``z1``, the logistic prior of a logit
+    coordinate and a likelihood that tilts it (``exp(-(z1 - 1)^2 / 18)``)."""
+    z = np.atleast_2d(z)
+    return (
+        -0.5 * z[:, 0] ** 2
+        + PriorCoordinateProposal.log_density(z[:, 1])
+        - (z[:, 1] - 1.0) ** 2 / 18.0
+    )
+
+
+def test_prior_coordinate_move_draws_a_flat_coordinate_and_keeps_the_target():
+    """Where the likelihood is flat in a coordinate the move accepts every draw from the
+    prior; with a likelihood that tilts it, the chain has the target's exact moments
+    (numerical quadrature), and the other coordinate is left alone."""
+    move = PriorCoordinateProposal([1])
+    z = np.zeros((4000, 2))
+    q, factor = move(z, np.random.RandomState(0))
+    np.testing.assert_array_equal(q[:, 0], 0.0)
+    # the Metropolis-Hastings ratio on the prior alone: exactly 1
+    prior_only = PriorCoordinateProposal.log_density(q[:, 1]) - PriorCoordinateProposal.log_density(
+        z[:, 1]
+    )
+    np.testing.assert_allclose(prior_only + factor, 0.0, atol=1e-12)
+    assert q[:, 1].std() == pytest.approx(np.pi / np.sqrt(3.0), rel=0.05)
+
+    sampler = emcee.EnsembleSampler(
+        4,
+        2,
+        logistic_target,
+        vectorize=True,
+        moves=[(emcee.moves.MHMove(move), 0.5), (emcee.moves.GaussianMove(1.0), 0.5)],
+    )
+    sampler.random_state = np.random.RandomState(1).get_state()
+    sampler.run_mcmc(np.zeros((4, 2)), 20000, skip_initial_state_check=True)
+    flat = sampler.get_chain(discard=500, flat=True)
+    grid = np.linspace(-40, 40, 200001)
+    w = np.exp(PriorCoordinateProposal.log_density(grid) - (grid - 1.0) ** 2 / 18.0)
+    w /= w.sum()
+    mean, sd = grid @ w, np.sqrt(((grid - grid @ w) ** 2) @ w)
+    # (80000 draws, autocorrelation of a few steps: the mean to ~0.03)
+    assert flat[:, 1].mean() == pytest.approx(mean, abs=0.06)
+    assert flat[:, 1].std() == pytest.approx(sd, rel=0.05)
+    assert flat[:, 0].std() == pytest.approx(1.0, rel=0.05)
+
+
+def test_free_columns_are_those_spread_like_their_prior():
+    rng = np.random.default_rng(0)
+    draws = np.column_stack(
+        [0.1 * rng.standard_normal(5000), rng.logistic(size=5000), 0.8 * rng.standard_normal(5000)]
+    )
+    np.testing.assert_array_equal(free_columns(draws), [1])
+    with pytest.raises(ValueError, match="no columns"):
+        PriorCoordinateProposal([])

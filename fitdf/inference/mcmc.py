@@ -41,7 +41,11 @@ Sampler
     defensive Student t), 40 % of the time; differential evolution on the same draws as a
     fixed archive (DE-MCz: steps along the posterior's ridges, and between its lobes),
     40 %; and a random-walk Metropolis move with the last round's covariance at the
-    Gaussian-optimal scale ``2.38^2/d``, 20 %. The proposals are fixed before production
+    Gaussian-optimal scale ``2.38^2/d``, 20 %. Where the pilot's draws spread a
+    coordinate like its prior (a parameter the data leave free: cubic_hc's ``h0_ratio``
+    and ``bend``), a fourth move draws one such coordinate from its prior, 20 % of the
+    time, the others in proportion (:class:`~fitdf.inference.proposals.PriorCoordinateProposal`).
+    The proposals are fixed before production
     starts, so production is an ordinary Markov chain with the posterior as its
     stationary law.
 
@@ -96,7 +100,7 @@ from fitdf.inference.caveats import (
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
 from fitdf.inference.problem import FitProblem
-from fitdf.inference.proposals import StudentTProposal, production_moves
+from fitdf.inference.proposals import StudentTProposal, free_columns, production_moves
 from fitdf.inference.results import FitResult, PosteriorResult, residual_table
 
 __all__ = [
@@ -509,11 +513,13 @@ def fit_mcmc(
             previous = draws
             if k >= 1:  # the adapted rounds' draws, pooled: a lobe visited once stays covered
                 pool.append(draws)
-            round_moves = production_moves(draws, _pooled(pool, draws), rng)
+            round_moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
     adapted = moves is None and pilot is not None
+    free = []  # the coordinates the prior-coordinate move draws (names)
     if adapted:
         # independent chains: few and long (R-hat needs each chain long, not many of them)
-        moves = production_moves(draws, _pooled(pool, draws), rng)
+        moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
+        free = [names[j] for j in free_columns(_pooled(pool, draws))] if logit else []
         start = start[: min(n_chains, n_walkers)]
     elif moves is None:
         moves = default_moves()
@@ -653,13 +659,15 @@ def fit_mcmc(
             "pilot (discarded): DE 0.8 + DE snooker 0.2, then the production moves adapted "
             "to it; production: independent chains, kernel-density independence 0.4 (the "
             "adapted rounds' draws, defensive t) + differential evolution on those draws 0.4 "
-            "+ random walk 0.2 (the last round's covariance)"
+            "+ random walk 0.2 (the last round's covariance); where the pilot leaves "
+            "coordinates free, a draw of one of them from its prior 0.2, the others x 0.8"
             if adapted
             else "given"
             if pilot_steps > 0
             else "DE 0.8 + DE snooker 0.2 (no pilot)"
         ),
         "coordinates": "logit of the prior box" if logit else "internal",
+        "drawn_from_prior": free,
         "point_estimate": "highest-posterior draw (MAP)"
         + (" of the parameters' marginal posterior" if marginal_noise else ""),
         "noise_priors": "log-uniform: sigma_magnitude 0.001..0.3, sigma_phase 0.1..50 deg",

@@ -34,7 +34,14 @@ import emcee
 import numpy as np
 from scipy.special import gammaln, logsumexp
 
-__all__ = ["StudentTProposal", "KernelProposal", "ArchiveDifferentialProposal", "production_moves"]
+__all__ = [
+    "StudentTProposal",
+    "KernelProposal",
+    "ArchiveDifferentialProposal",
+    "PriorCoordinateProposal",
+    "free_columns",
+    "production_moves",
+]
 
 
 def _jitter(cov):
@@ -172,14 +179,66 @@ class ArchiveDifferentialProposal:
         return q, np.zeros(n)
 
 
+class PriorCoordinateProposal:
+    """Independence proposal for one coordinate at a time, from its prior, for
+    :class:`emcee.moves.MHMove`: for parameters the data leave free.
+
+    In the logit coordinates of the prior box (:class:`fitdf.inference.mcmc.BoxCoordinates`)
+    a parameter with a uniform prior has the standard logistic density as its prior, so
+    drawing ``z_j`` from it (``j`` uniformly among ``columns``, the rest kept) makes the
+    Metropolis-Hastings ratio the likelihood ratio alone. Where the posterior of ``z_j``
+    is its prior (cubic_hc's ``h0_ratio`` and ``bend`` over the whole box on every block),
+    the move draws it anew in one step whatever its current value, which neither the
+    kernel nor a random walk scaled to the other parameters does. Returns
+    ``(proposal, log q(x) - log q(x'))``.
+    """
+
+    def __init__(self, columns):
+        self.columns = np.asarray(columns, int)
+        if not self.columns.size:
+            raise ValueError("no columns to draw from their prior")
+
+    @staticmethod
+    def log_density(z):
+        """The standard logistic density's log (``log s(z) + log s(-z)``)."""
+        return -np.logaddexp(0.0, -z) - np.logaddexp(0.0, z)
+
+    def __call__(self, coords, random):
+        n = coords.shape[0]
+        j = self.columns[random.randint(self.columns.size, size=n)]
+        rows = np.arange(n)
+        old = coords[rows, j]
+        new = random.logistic(size=n)
+        q = coords.copy()
+        q[rows, j] = new
+        return q, self.log_density(old) - self.log_density(new)
+
+
+#: Logit coordinates whose pilot draws spread at least this share of the standard logistic
+#: density's own spread (``pi / sqrt(3)``) are left free by the data: the prior-coordinate
+#: move draws them (:class:`PriorCoordinateProposal`).
+FREE_SPREAD = 0.5
+
+
+def free_columns(draws, spread: float = FREE_SPREAD):
+    """Columns of ``draws`` (logit coordinates) spread like their logistic prior."""
+    sd = np.std(np.atleast_2d(draws), axis=0)
+    return np.flatnonzero(sd >= spread * np.pi / np.sqrt(3.0))
+
+
 #: Shares of the production moves: kernel independence, archive DE, random walk.
 MOVE_SHARES = (0.4, 0.4, 0.2)
+#: Share of the prior-coordinate move where the pilot's draws leave coordinates free
+#: (:func:`free_columns`); the others' shares shrink in proportion.
+PRIOR_SHARE = 0.2
 
 
-def production_moves(last, pool=None, rng=None):
+def production_moves(last, pool=None, rng=None, logit: bool = False):
     """Moves adapted to the pilot, in :data:`MOVE_SHARES`: the kernel independence move and
     differential evolution, both on ``pool`` (default ``last``), and the random walk with
-    the covariance of ``last``.
+    the covariance of ``last``; and, for draws in the logit coordinates of the prior box
+    (``logit``) with coordinates spread like their prior (:func:`free_columns`), the
+    prior-coordinate move at :data:`PRIOR_SHARE`, the others' shares shrunk in proportion.
 
     ``last`` are the draws ``(n, d)`` of the last pilot round, ``pool`` those of every
     adapted round (a lobe the walkers visited once stays covered); ``rng`` chooses the
@@ -190,9 +249,17 @@ def production_moves(last, pool=None, rng=None):
     cov = np.atleast_2d(np.cov(last, rowvar=False))  # (1, 1) for one parameter
     d = cov.shape[0]
     kernel, differential, walk = MOVE_SHARES
-    return [
-        (emcee.moves.MHMove(KernelProposal(pool, rng)), kernel),
-        (emcee.moves.MHMove(ArchiveDifferentialProposal(pool, rng)), differential),
+    free = free_columns(pool) if logit else np.zeros(0, int)
+    rest = 1.0 - PRIOR_SHARE if free.size else 1.0
+    moves = [
+        (emcee.moves.MHMove(KernelProposal(pool, rng)), rest * kernel),
+        (emcee.moves.MHMove(ArchiveDifferentialProposal(pool, rng)), rest * differential),
         # random-walk Metropolis at the optimal scale for a Gaussian target (2.38^2 / d)
-        (emcee.moves.GaussianMove((2.38**2 / d) * cov + _jitter(cov), mode="vector"), walk),
+        (
+            emcee.moves.GaussianMove((2.38**2 / d) * cov + _jitter(cov), mode="vector"),
+            rest * walk,
+        ),
     ]
+    if free.size:
+        moves.append((emcee.moves.MHMove(PriorCoordinateProposal(free)), PRIOR_SHARE))
+    return moves
