@@ -187,7 +187,7 @@ class PriorCoordinateProposal:
     a parameter with a uniform prior has the standard logistic density as its prior, so
     drawing ``z_j`` from it (``j`` uniformly among ``columns``, the rest kept) makes the
     Metropolis-Hastings ratio the likelihood ratio alone. Where the posterior of ``z_j``
-    is its prior (cubic_hc's ``h0_ratio`` and ``bend`` over the whole box on every block),
+    is its prior (cubic_hc's ``h0_ratio`` and ``bend`` on B.3: their draws fill the box),
     the move draws it anew in one step whatever its current value, which neither the
     kernel nor a random walk scaled to the other parameters does. Returns
     ``(proposal, log q(x) - log q(x'))``.
