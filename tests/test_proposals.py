@@ -12,6 +12,7 @@ import pytest
 
 from fitdf.inference.proposals import (
     MOVE_SHARES,
+    PRIOR_SHARE,
     ArchiveDifferentialProposal,
     KernelProposal,
     PriorCoordinateProposal,
@@ -160,5 +161,14 @@ def test_free_columns_are_those_spread_like_their_prior():
         [0.1 * rng.standard_normal(5000), rng.logistic(size=5000), 0.8 * rng.standard_normal(5000)]
     )
     np.testing.assert_array_equal(free_columns(draws), [1])
+    # in logit coordinates the production moves draw that column from its prior, at
+    # PRIOR_SHARE, the others' shares shrunk in proportion; in other coordinates they do not
+    moves = production_moves(draws, logit=True)
+    assert isinstance(moves[-1][0].get_proposal, PriorCoordinateProposal)
+    np.testing.assert_array_equal(moves[-1][0].get_proposal.columns, [1])
+    assert [w for _, w in moves] == pytest.approx(
+        [(1 - PRIOR_SHARE) * w for w in MOVE_SHARES] + [PRIOR_SHARE]
+    )
+    assert [w for _, w in production_moves(draws)] == list(MOVE_SHARES)
     with pytest.raises(ValueError, match="no columns"):
         PriorCoordinateProposal([])

@@ -100,7 +100,11 @@ from fitdf.inference.caveats import (
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
 from fitdf.inference.problem import FitProblem
-from fitdf.inference.proposals import StudentTProposal, free_columns, production_moves
+from fitdf.inference.proposals import (
+    PriorCoordinateProposal,
+    StudentTProposal,
+    production_moves,
+)
 from fitdf.inference.results import FitResult, PosteriorResult, residual_table
 
 __all__ = [
@@ -519,7 +523,12 @@ def fit_mcmc(
     if adapted:
         # independent chains: few and long (R-hat needs each chain long, not many of them)
         moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
-        free = [names[j] for j in free_columns(_pooled(pool, draws))] if logit else []
+        free = [
+            names[j]
+            for move, _ in moves
+            if isinstance(getattr(move, "get_proposal", None), PriorCoordinateProposal)
+            for j in move.get_proposal.columns
+        ]
         start = start[: min(n_chains, n_walkers)]
     elif moves is None:
         moves = default_moves()
