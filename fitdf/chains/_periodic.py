@@ -336,7 +336,10 @@ def half_periods(x, B, V, R, w, phi0, n, dsig, out, threads=1):
     ``benchmarks/bench_voltage.py``).
     """
     P = x.shape[0]
-    threads = min(int(threads), numba.get_num_threads())
+    # (asked only when it matters: numba's thread count costs ~30 us a call, and this runs
+    # at every step of every root search)
+    if threads > 1 and P * n >= PARALLEL_WORK:
+        threads = min(int(threads), numba.get_num_threads())
     if threads > 1 and P * n >= PARALLEL_WORK:
         _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, min(threads, P))
     else:

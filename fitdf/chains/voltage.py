@@ -103,6 +103,7 @@ at most 5e-4 (``benchmarks/audit_voltage_fits.py``).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -241,10 +242,13 @@ def _largest_share(B):
     hull = np.maximum.accumulate(B, axis=1)
     swing = hull[:, -1] - hull[:, 0]
     with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.diff(hull, axis=1).max(axis=1) / swing
-    return np.where(swing > 0, np.nan_to_num(share), 0.0)
+        share = (hull[:, 1:] - hull[:, :-1]).max(axis=1) / swing
+    # where the swing is positive the share is in [0, 1] or NaN (a NaN or infinite table):
+    # fmax makes NaN 0, as nan_to_num would, at a tenth of its cost (it runs every step)
+    return np.where(swing > 0, np.fmax(share, 0.0), 0.0)
 
 
+@functools.lru_cache(maxsize=8)
 def _bdf2_response(steps):
     """BDF2's derivative of ``exp(j theta)`` over ``j exp(j theta)`` at the regular step ``pi/steps``.
 
