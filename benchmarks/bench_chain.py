@@ -1,6 +1,7 @@
 """One report chain at a time: least squares, then MCMC with the report's settings.
 
 Run:  python benchmarks/bench_chain.py B.5:cubic_hc [B.1:preisach ...] [--seed 0]
+          [--steps MAX EXTEND]
 
 For each ``block:law`` (a report block, ``permalloy-joint`` and ``deltamax-joint`` included)
 it fits the law by least squares as the report does, then runs the report's MCMC job on it
@@ -24,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from fitdf.report.build import BLOCKS, ReportSettings, _job_lsq, _job_mcmc
 
 
-def run(block_key: str, law: str, seed: int, settings: ReportSettings) -> None:
+def run(block_key: str, law: str, seed: int, settings: ReportSettings, limits=None) -> None:
     blocks = {b.key: b for b in BLOCKS}
     if block_key not in blocks:
         raise SystemExit(f"unknown block {block_key!r}; choose from {', '.join(blocks)}")
@@ -32,7 +33,8 @@ def run(block_key: str, law: str, seed: int, settings: ReportSettings) -> None:
     t0 = time.perf_counter()
     lsq = _job_lsq(block.data, law, seed, settings.n_starts, settings.chain)
     t1 = time.perf_counter()
-    post = _job_mcmc(lsq, seed, settings.n_steps, settings.n_walkers, *settings.step_limits(law))
+    limits = limits or settings.step_limits(law)
+    post = _job_mcmc(lsq, seed, settings.n_steps, settings.n_walkers, *limits)
     t2 = time.perf_counter()
     d = post.diagnostics
     rhat, ess = max(d["rhat"].values()), min(d["ess_bulk"].values())
@@ -49,6 +51,13 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("chains", nargs="+", metavar="BLOCK:LAW")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--steps",
+        type=int,
+        nargs=2,
+        metavar=("MAX", "EXTEND"),
+        help="the chains' max_steps and extend_steps (default: the report's for each law)",
+    )
     args = parser.parse_args(argv)
     settings = ReportSettings.for_run()
     print(
@@ -57,7 +66,7 @@ def main(argv=None) -> None:
     )
     for spec in args.chains:
         block_key, _, law = spec.partition(":")
-        run(block_key, law, args.seed, settings)
+        run(block_key, law, args.seed, settings, args.steps)
 
 
 if __name__ == "__main__":
