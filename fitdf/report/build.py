@@ -127,27 +127,21 @@ class ReportSettings:
         of a block (None: all models; 0: none).
     n_steps, max_steps, n_walkers : int
         MCMC production steps at least, at most (the chain is extended until it is
-        converged: :func:`fitdf.inference.mcmc.is_converged`, and stopped before once 50
-        of its autocorrelation times exceed ``max_steps``) and walkers (None: twice the
-        dimensions plus two, the fewest differential evolution allows). 6000 steps: the
-        Deltamax Preisach chains have autocorrelation times of 75-90 steps, so 50 of them
-        are 4000-4500 steps, and a limit of 4000 stopped them at 2000-3400 steps as unable
-        to converge; the joint block's chain reached R-hat 1.011 at 6000
-        (benchmarks/README.md, sixteenth pass).
+        converged: :func:`fitdf.inference.mcmc.is_converged`) and walkers (None: twice the
+        dimensions plus two, the fewest differential evolution allows).
     extend_steps : int or None
         A chain that reaches ``max_steps`` on course for 50 autocorrelation times but is
         short of R-hat or ESS goes on up to this many steps, while 50 autocorrelation times
         fit in them (``fit_mcmc(extend_steps=...)``); the chains too slow for ``max_steps``
-        still stop at it, or before. (B.1's Preisach chain: R-hat 1.0103 at 6000 steps,
-        146 autocorrelation times.)
+        still stop at it, or before.
     closed_form_step_factor : int
         ``max_steps`` and ``extend_steps`` are this many times longer for the laws whose
         describing function is in closed form (``HysteresisModel.closed_form``): through the
-        exact chain they cost 0.9-5 ms per parameter set against Preisach's 3.5-15 ms, so the
+        exact chain they cost 0.9-3.3 ms per parameter set against Preisach's 3.5-10 ms, so the
         same time buys them more steps. Of those laws only cubic_hc needs them: its kinked
         posterior (the joint ``h1`` between rows) mixes slowly, and on B.1 it converged at
-        7900 steps, on B.5 at 14000 (benchmarks/README.md, fifteenth pass); the others
-        converge within the common limits.
+        14400 steps (benchmarks/README.md, thirteenth pass); the others converge within
+        the common limits.
     mcmc_skip : tuple of str
         Laws left out of the report's MCMC (the best laws *without* them get the chains):
         Jiles-Atherton through the exact chain costs 20-60 ms per parameter set, 5-10 times
@@ -184,9 +178,9 @@ class ReportSettings:
     n_starts: int = 6
     mcmc_top: int | None = 3
     n_steps: int = 300
-    max_steps: int = 6000
-    extend_steps: int | None = 8000
-    closed_form_step_factor: int = 2
+    max_steps: int = 4000
+    extend_steps: int | None = 6000
+    closed_form_step_factor: int = 3
     n_walkers: int | None = None
     mcmc_skip: tuple = ("jiles_atherton",)
     cv_top: int | None = 2
