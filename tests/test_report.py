@@ -434,8 +434,11 @@ def test_approximate_chain_refit_starts_at_the_exact_optimum():
         seed=0,
         starts=exact.internal,
     )
-    assert approx.info["starts_chi2"][0] == pytest.approx(alone.info["starts_chi2"][0], rel=1e-12)
-    assert approx.metrics["chi2"] <= alone.metrics["chi2"] + 1e-9
+    # (polished in a batch of two starts, not alone: on some CPUs the batch's rounding moves
+    # where the optimiser stops by ~2e-9 relative, AMD EPYC here; a polish from any other
+    # start ends elsewhere by far more)
+    assert approx.info["starts_chi2"][0] == pytest.approx(alone.info["starts_chi2"][0], rel=1e-7)
+    assert approx.metrics["chi2"] <= alone.metrics["chi2"] * (1 + 1e-7)
     # --quick: the exact optimum only, which is that polish exactly
     assert ReportSettings.for_run(quick=True).approximate_screen == 0
     assert ReportSettings.for_run().approximate_screen == 1
