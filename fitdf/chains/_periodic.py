@@ -336,14 +336,14 @@ def half_periods(x, B, V, R, w, phi0, n, dsig, out, threads=1):
     ``benchmarks/bench_voltage.py``).
     """
     P = x.shape[0]
-    # (asked only when it matters: numba's thread count costs ~30 us a call, and this runs
-    # at every step of every root search)
     if threads > 1 and P * n >= PARALLEL_WORK:
-        threads = min(int(threads), numba.get_num_threads())
-    if threads > 1 and P * n >= PARALLEL_WORK:
-        _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, min(threads, P))
-    else:
-        _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, 0, P)
+        # (numba's thread count is asked only here: it costs ~30 us a call, and this runs
+        # at every step of every root search)
+        chunks = min(int(threads), numba.get_num_threads(), P)
+        if chunks > 1:
+            _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, chunks)
+            return
+    _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, 0, P)
 
 
 @numba.njit(cache=True)
