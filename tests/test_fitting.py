@@ -423,17 +423,24 @@ def test_a_law_with_a_start_multiple_gets_that_many_more_starts():
 
 @pytest.mark.slow
 def test_cubic_hc_needs_its_start_multiple_on_deltamax(monkeypatch):
-    """Six starts can all end far above cubic_hc's best basin on Deltamax (B.2 seed 1:
-    chi-square 1674 against 1322 with 24 starts; the law's kinks, ``CubicHc``). In the
-    coordinates ``(h1, m1, tail_slope, h0_ratio, bend)``, over seeds 0/1/2, six starts gave
-    B.2 1310/1674/1717 against 1172/1322/1341 with 24, and B.5 4491/4188/4493 against
-    4017/4157/4185. Which seed misses most moves with the polish's last digits."""
+    """cubic_hc's best basin on Deltamax is reached from few starts: the law's kinks
+    (``CubicHc``) split B.2's chi-square into basins 180 or more apart (AMD EPYC, 24 starts:
+    1175 | 1355-1400 | 1450-1530 | 1750+). There, seeds 0/1/2 with 24 starts each reached
+    1175 from one start of the 24, and six starts missed it on all three (1378/1373/1384).
+    Which start lands in which basin moves with the polish's last digits, so with the CPU: on
+    the machine that made the committed report seed 1 with 24 starts ended at 1322 and six
+    starts gave 1310/1674/1717. Asserted is what holds on both: the basin of the best of 24
+    starts is reached by at most a quarter of them (six starts then miss it with probability
+    at least (3/4)^6 = 18 %), and six starts end 100 above it on at least one of three seeds."""
     from fitdf.models import get_model
 
     law = get_model("cubic_hc")
     r = fitdf.fit("B.2", "cubic_hc", seed=1)
-    assert len(r.info["starts_chi2"]) == 24
-    assert r.metrics["chi2"] < 1400
+    starts = np.asarray(r.info["starts_chi2"])
+    best = r.metrics["chi2"]
+    assert starts.size == 24 and best <= starts.min()  # (the best start, polished once more)
+    assert best < 1400
+    assert np.count_nonzero(starts < best + 50) <= 6
     monkeypatch.setattr(law, "start_multiple", 1)
-    six = fitdf.fit("B.2", "cubic_hc", seed=1)
-    assert six.metrics["chi2"] > 1.2 * r.metrics["chi2"]
+    six = [fitdf.fit("B.2", "cubic_hc", seed=seed).metrics["chi2"] for seed in (0, 1, 2)]
+    assert max(six) > best + 100

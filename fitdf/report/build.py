@@ -56,6 +56,7 @@ from fitdf.models import get_model, model_names
 from fitdf.report import render
 from fitdf.report import sections as rs
 from fitdf.report.executor import Executor
+from fitdf.report.machine import machine_record
 
 __all__ = [
     "generate_report",
@@ -562,7 +563,8 @@ def generate_report(
     out_dir : str or Path
         Report folder (replaced as a whole; its parent is created if missing).
     seed : int
-        Seed of every fit; the same seed gives the same numbers.
+        Seed of every fit; the same seed gives the same numbers on the same CPU and libraries
+        (``results['timing']['machine']``, :mod:`fitdf.report.machine`).
     quick : bool
         Least squares only, with the same models, starts and seed as the full run (so
         the same rankings), no cross-validation, one model per cross-impedance
@@ -599,6 +601,7 @@ def generate_report(
         total = time.perf_counter() - start
         results["timing"]["total_s"] = total
         results["timing"]["workers"] = runner.workers
+        results["timing"]["machine"] = machine_record()
         results = {
             "fitdf_version": __version__,
             "seed": int(seed),
