@@ -14,12 +14,16 @@ here; tests/test_cli_fast.py checks them against the library.
 
 from __future__ import annotations
 
+import _thread
 import argparse
+import contextlib
+import functools
 import json
 import os
 import re
 import signal
 import sys
+import threading
 import traceback
 from pathlib import Path
 
@@ -835,6 +839,57 @@ def _raise_terminated(signum, frame):
     raise Terminated
 
 
+def _interrupt_main_soon(signum: int) -> None:
+    """Signal ``signum`` to the main thread from a timer thread 0.1 s from now."""
+    timer = threading.Timer(0.1, _thread.interrupt_main, args=(signum,))
+    timer.daemon = True
+    timer.start()
+
+
+def _raise_swallowed_stop_again(unraisable, fallback=sys.__unraisablehook__) -> None:
+    """``sys.unraisablehook`` while a command runs: a Ctrl-C or SIGTERM whose exception was
+    raised inside a C callback is printed and dropped by ctypes ("Exception ignored on calling
+    ctypes callback function": llvmlite's object-cache callback while numba compiles a
+    kernel, as on a first run), and the command would run on. The signal is given to the main
+    thread again a moment later, from another thread: raised from here, its exception would be
+    dropped with this hook's. Anything else goes to ``fallback``, the hook there before."""
+    exc = unraisable.exc_value
+    if isinstance(exc, Terminated):
+        signal.signal(signal.SIGTERM, _raise_terminated)  # the first one had reset it
+        signum = signal.SIGTERM
+    elif isinstance(exc, KeyboardInterrupt):
+        signum = signal.SIGINT
+    else:
+        fallback(unraisable)
+        return
+    while True:
+        try:
+            _interrupt_main_soon(signum)
+            return
+        except (KeyboardInterrupt, Terminated):  # it came while still in here: once more
+            continue
+
+
+@contextlib.contextmanager
+def stop_signals():
+    """Ctrl-C and SIGTERM stop a command by an exception :func:`main` catches: SIGTERM raises
+    :class:`Terminated` in the main thread, and a stop swallowed by a C callback is raised
+    again (:func:`_raise_swallowed_stop_again`). Both restored on the way out; outside the
+    main thread (no signal handlers there) only the hook is set."""
+    hook = sys.unraisablehook
+    try:
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    except ValueError:
+        previous = False
+    sys.unraisablehook = functools.partial(_raise_swallowed_stop_again, fallback=hook)
+    try:
+        yield
+    finally:
+        sys.unraisablehook = hook
+        if previous is not False:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
 def _stopped_message(args, exc: BaseException) -> str:
     """The one line after Ctrl-C or SIGTERM: what was kept."""
     what = "terminated" if isinstance(exc, Terminated) else "interrupted"
@@ -858,13 +913,10 @@ def main(argv=None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return EXIT_USAGE
-    try:  # SIGTERM as an exception (main thread only; restored on the way out)
-        previous = signal.signal(signal.SIGTERM, _raise_terminated)
-    except ValueError:
-        previous = False
     try:
-        _validate(args)
-        return args.func(args)
+        with stop_signals():
+            _validate(args)
+            return args.func(args)
     except FitdfError as exc:
         print(one_line(f"fitdf {args.command}: error: {exc}"), file=sys.stderr)
         return EXIT_USAGE
@@ -880,9 +932,6 @@ def main(argv=None) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERNAL
-    finally:
-        if previous is not False:
-            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 if __name__ == "__main__":
