@@ -168,6 +168,7 @@ def test_user_csv_fits(tmp_path):
     assert "mycore.csv" in p.stdout
 
 
+@pytest.mark.slow  # 24 s on 2 cores; test_limit_cycle_warns_of_an_unstable_plant runs the command by default
 def test_limit_cycle_command_prints_table_json_and_plot(tmp_path):
     plant = "K/((1+s)(1+0.25s)(1+1.1s))"
     p = run(
@@ -250,6 +251,7 @@ FAST_FIT = (
 )
 
 
+@pytest.mark.slow  # 15 s; a batch is checked before fitting by default (test_fit_batch_checks_every_file_before_fitting)
 def test_fit_batch_ranks_each_file_then_summarises(tmp_path):
     a, b = _write_cores(tmp_path / "cores")
     (tmp_path / "cores" / "notes.txt").write_text("not a CSV: ignored\n")

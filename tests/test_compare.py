@@ -24,7 +24,10 @@ TRUTH = {
 }
 
 
-@pytest.mark.parametrize("truth", RIVALS)
+@pytest.mark.parametrize(
+    "truth",  # one truth by default (14 s on 2 cores), the two dearer ones with the slow tests
+    [t if t == "constant_width" else pytest.param(t, marks=pytest.mark.slow) for t in RIVALS],
+)
 def test_data_generated_by_a_model_rank_it_first(truth):
     frame = synthetic_frame(
         truth, {**TRUTH[truth], **CHAIN}, source_impedances=(0.0, 600.0), seed=7
@@ -66,6 +69,7 @@ def test_ranking_columns_and_ties():
     assert set(RANK_COLUMNS) >= {"rms_complex", "aicc", "looic"}
 
 
+@pytest.mark.slow  # 17 s; the tiny report runs cross-validation by default
 def test_cross_validation_predicts_a_held_out_frequency():
     frame = synthetic_frame("proportional_width", {**TRUTH["proportional_width"], **CHAIN}, seed=2)
     r = fit_all(frame, models=["proportional_width"], policy="all")[0]
@@ -95,6 +99,7 @@ def test_cross_impedance_prediction_table_on_real_data():
     assert np.isfinite(table["predict_rms_complex"]).all()
 
 
+@pytest.mark.slow  # 25 s; test_cross_impedance_prediction_table_on_real_data runs by default
 def test_cross_impedance_on_synthetic_truth():
     truth = {**TRUTH["rayleigh"], **CHAIN}
     frame = pd.concat(

@@ -168,7 +168,7 @@ def test_pareto_k_above_0_7_counts_as_bad(monkeypatch):
 # --- the same functions inside fit_mcmc -----------------------------------------------------
 
 
-@pytest.mark.parametrize("marginal", [True, False])
+@pytest.mark.parametrize("marginal", [pytest.param(True, marks=pytest.mark.slow), False])
 def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch, marginal):
     problem = mcmc_problem()
     lsq = fit_lsq(problem, seed=0, n_starts=2)

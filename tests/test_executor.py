@@ -140,6 +140,7 @@ def test_report_scheduler_option_and_environment(monkeypatch, tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []  # no report, no temporary folder
 
 
+@pytest.mark.slow  # 19 s on 2 cores (the CV folds); jobs on workers are checked by default above
 def test_fits_on_workers_give_the_serial_numbers():
     # fitdf fit --workers 2: the fits and the cross-validation folds run in worker processes
     # and must give exactly the numbers of one process (the CLI's default is 2 workers)

@@ -109,11 +109,11 @@ def previous_report(tmp_path) -> Path:
 
 @pytest.mark.parametrize(
     ("sig", "group", "delay", "code", "word"),
-    [
-        (signal.SIGINT, False, 2.0, 130, "interrupted"),
+    [  # (one by default: each runs a report for seconds; the others with the slow tests)
+        pytest.param(signal.SIGINT, False, 2.0, 130, "interrupted", marks=pytest.mark.slow),
         # Ctrl-C in a terminal reaches every process, here while the workers still import
         (signal.SIGINT, True, 0.3, 130, "interrupted"),
-        (signal.SIGTERM, False, 2.0, 143, "terminated"),
+        pytest.param(signal.SIGTERM, False, 2.0, 143, "terminated", marks=pytest.mark.slow),
     ],
 )
 def test_a_signal_stops_the_report_and_keeps_the_previous_one(
@@ -146,7 +146,10 @@ def test_a_signal_stops_the_report_and_keeps_the_previous_one(
 
 @pytest.mark.parametrize(
     ("sig", "code", "word"),
-    [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")],
+    [
+        (signal.SIGINT, 130, "interrupted"),
+        pytest.param(signal.SIGTERM, 143, "terminated", marks=pytest.mark.slow),
+    ],
 )
 def test_a_signal_stops_a_fit(sig, code, word):
     proc = subprocess.Popen(
@@ -233,7 +236,7 @@ try:
     with cli.stop_signals():
         c_callback()
         print("callback returned", flush=True)
-        deadline = time.monotonic() + 10
+        deadline = time.monotonic() + 3  # (the signal is given again 0.1 s after)
         while time.monotonic() < deadline:
             pass
     print("ran on", dropped, flush=True)

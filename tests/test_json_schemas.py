@@ -183,21 +183,44 @@ def _run(args: list[str]) -> subprocess.CompletedProcess:
     )
 
 
+#: The commands that fit with a pool of workers, MCMC or the limit-cycle search (tens of
+#: seconds each on a 2-core machine): their schema checks run with the slow tests.
+SLOW_CASES = {"fit-csv-mcmc", "fit-batch", "limit-cycle"}
+
+
+def _case(case, *rest):
+    """A parameter set of the cases below, marked slow for :data:`SLOW_CASES`."""
+    return pytest.param(case, *rest, marks=pytest.mark.slow if case in SLOW_CASES else ())
+
+
+def _cases_wanted(request) -> set[str]:
+    """The cases of COMMANDS the selected tests of this module read (``fit-B.1`` always)."""
+    wanted = {"fit-B.1"}
+    for item in request.session.items:
+        params = getattr(getattr(item, "callspec", None), "params", {})
+        if item.module is request.module and "case" in params:
+            wanted.add(params["case"])
+    return wanted
+
+
 @pytest.fixture(scope="module")
-def cli_outputs(tmp_path_factory) -> dict:
-    """Every command of COMMANDS, two at a time (each is mostly start-up and one small fit)."""
+def cli_outputs(request, tmp_path_factory) -> dict:
+    """The commands of COMMANDS the selected tests read, two at a time (each is mostly
+    start-up and one small fit)."""
     csv = tmp_path_factory.mktemp("csv") / "mycore.csv"
     csv.write_text(USER_CSV)
+    wanted = _cases_wanted(request)
     argv = {
         case: [a.replace("{csv}", str(csv)).replace("{dir}", str(csv.parent)) for a in args]
         for case, _, args in COMMANDS
+        if case in wanted
     }
     with ThreadPoolExecutor(max_workers=2) as pool:
         done = dict(zip(argv, pool.map(_run, argv.values())))
     return done
 
 
-@pytest.mark.parametrize(("case", "schema"), [(c, s) for c, s, _ in COMMANDS])
+@pytest.mark.parametrize(("case", "schema"), [_case(c, s) for c, s, _ in COMMANDS])
 def test_cli_json_matches_schema(cli_outputs, case, schema):
     proc = cli_outputs[case]
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -230,22 +253,22 @@ def _drop(obj: dict, path: tuple):
 @pytest.mark.parametrize(
     ("case", "schema", "path"),
     [
-        ("datasets", "fitdf-datasets.schema.json", ("appendix_b",)),
-        ("datasets", "fitdf-datasets.schema.json", ("appendix_b", 0, "frequency_hz")),
-        ("audit-B.1", "fitdf-audit.schema.json", ("findings",)),
-        ("audit-B.1", "fitdf-audit.schema.json", ("flagged", 0, "exclude_default")),
-        ("models", "fitdf-models.schema.json", ("models", 0, "parameters")),
-        ("fit-B.1", "fitdf-fit.schema.json", ("ranking",)),
-        ("fit-B.1", "fitdf-fit.schema.json", ("ranking", 0, "rms_complex")),
-        ("fit-B.1", "fitdf-fit.schema.json", ("fits", 0, "parameters", 0, "value")),
-        ("fit-B.1", "fitdf-fit.schema.json", ("fits", 0, "appendix_a_check", 0, "inside")),
-        ("fit-csv-mcmc", "fitdf-fit.schema.json", ("fits", 1, "diagnostics")),
-        ("fit-batch", "fitdf-fit-batch.schema.json", ("summary", 0, "aicc")),
-        ("fit-batch", "fitdf-fit-batch.schema.json", ("files", 0, "ranking")),
-        ("fit-batch", "fitdf-fit-batch.schema.json", ("files", 1, "fits", 0, "parameters")),
-        ("limit-cycle", "fitdf-limit-cycle.schema.json", ("critical_gain",)),
-        ("limit-cycle", "fitdf-limit-cycle.schema.json", ("warnings",)),
-        ("limit-cycle", "fitdf-limit-cycle.schema.json", ("intersections", 0, "amplitude")),
+        _case("datasets", "fitdf-datasets.schema.json", ("appendix_b",)),
+        _case("datasets", "fitdf-datasets.schema.json", ("appendix_b", 0, "frequency_hz")),
+        _case("audit-B.1", "fitdf-audit.schema.json", ("findings",)),
+        _case("audit-B.1", "fitdf-audit.schema.json", ("flagged", 0, "exclude_default")),
+        _case("models", "fitdf-models.schema.json", ("models", 0, "parameters")),
+        _case("fit-B.1", "fitdf-fit.schema.json", ("ranking",)),
+        _case("fit-B.1", "fitdf-fit.schema.json", ("ranking", 0, "rms_complex")),
+        _case("fit-B.1", "fitdf-fit.schema.json", ("fits", 0, "parameters", 0, "value")),
+        _case("fit-B.1", "fitdf-fit.schema.json", ("fits", 0, "appendix_a_check", 0, "inside")),
+        _case("fit-csv-mcmc", "fitdf-fit.schema.json", ("fits", 1, "diagnostics")),
+        _case("fit-batch", "fitdf-fit-batch.schema.json", ("summary", 0, "aicc")),
+        _case("fit-batch", "fitdf-fit-batch.schema.json", ("files", 0, "ranking")),
+        _case("fit-batch", "fitdf-fit-batch.schema.json", ("files", 1, "fits", 0, "parameters")),
+        _case("limit-cycle", "fitdf-limit-cycle.schema.json", ("critical_gain",)),
+        _case("limit-cycle", "fitdf-limit-cycle.schema.json", ("warnings",)),
+        _case("limit-cycle", "fitdf-limit-cycle.schema.json", ("intersections", 0, "amplitude")),
     ],
 )
 def test_a_missing_required_key_fails(cli_outputs, case, schema, path):

@@ -295,6 +295,7 @@ def test_fitted_core_in_the_thesis_loop(b1_fit):
     assert "die out below gain" in text
 
 
+@pytest.mark.slow  # 12 s; the fitted core cycles of the other tests here run by default
 def test_fitted_core_cycles_at_every_gain_match_a_scan_of_the_balance_curve(b1_fit):
     """An independent path: scan ``arg(-G0 N) = 0`` over a fine grid of amplitudes and
     frequencies (no least squares, no candidate cells); along that curve the gain of a

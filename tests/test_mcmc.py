@@ -104,6 +104,7 @@ def test_shape_change_of_pilot_rounds():
     assert _shape_change(a, shifted) == pytest.approx(1.0, abs=0.1)  # still moving
 
 
+@pytest.mark.slow  # 18 s; _shape_change, the rule it applies, is tested by default
 def test_pilot_rounds_stop_once_settled(problem, lsq):
     # a near-Gaussian posterior: two adapted rounds after differential evolution settle it
     r = fit_mcmc(problem, lsq, seed=3, n_steps=200, n_walkers=16)

@@ -303,6 +303,7 @@ def test_interrupted_swap_restores_the_old_report(tmp_path, monkeypatch):
     assert (out / "README.md").read_text() == "old report\n"
 
 
+@pytest.mark.slow  # 28 s: two reports; a fit and a chain repeat with a seed by default (test_fitting, test_mcmc)
 def test_same_seed_same_numbers(tmp_path, stub_figures):
     # every random stage (the starts, the pilot rounds and chain, the CV folds), short:
     # the same seed must give the same numbers whatever the length of the chain (not
