@@ -72,6 +72,27 @@ def test_a_bad_option_value_fails_before_the_numerical_stack_loads():
     assert not [m for m in found["modules"] if m.split(".")[0] in HEAVY]
 
 
+#: What ``fitdf fit`` imports only once every file it is given has been read and checked.
+FITTING_STACK = ("lmfit", "emcee", "arviz", "matplotlib", "fitdf.inference", "fitdf.report")
+
+
+def test_bad_data_fail_before_the_fitting_stack_loads(tmp_path):
+    """A bad file, a missing one, a folder with a bad file: one-line errors (exit 2) from the
+    data layer alone, not after ~5 s of importing the fitting stack (``cmd_fit_checked``)."""
+    bad = tmp_path / "cores" / "zz_bad.csv"
+    bad.parent.mkdir()
+    bad.write_text("input_v,frequency_hz,df_reported,phase_lead_deg\n0.5,10,abc,3\n")
+    found = _probe(
+        [["fit", str(bad)], ["fit", str(tmp_path / "nope.csv")], ["fit", str(bad.parent)]]
+    )
+    assert [c for c, _ in found["codes"]] == [2, 2, 2]
+    loaded = [m for m in found["modules"] if m.startswith(FITTING_STACK)]
+    assert not loaded, loaded
+    assert (
+        "fitdf.data.resolve" in found["modules"]
+    )  # (the data were read: the probe is not vacuous)
+
+
 def test_python_dash_m_fitdf_prints_the_version():
     run = subprocess.run(
         [sys.executable, "-m", "fitdf", "--version"], capture_output=True, text=True, timeout=120

@@ -264,7 +264,7 @@ def plot_cross_impedance(
     train_results : FitResult or list of them
         Fitted at the training impedance (first = best).
     test_data : FitData
-        The rows to predict (e.g. ``fitdf.inference.api.resolve_data("B.3")``).
+        The rows to predict (e.g. ``fitdf.data.resolve.resolve_data("B.3")``).
 
     Returns
     -------
