@@ -22,16 +22,14 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fitdf.report.build import BLOCKS, ReportSettings, _job_lsq, _job_mcmc
+from _report_fit import report_lsq
+
+from fitdf.report.build import ReportSettings, _job_mcmc
 
 
 def run(block_key: str, law: str, seed: int, settings: ReportSettings, limits=None) -> None:
-    blocks = {b.key: b for b in BLOCKS}
-    if block_key not in blocks:
-        raise SystemExit(f"unknown block {block_key!r}; choose from {', '.join(blocks)}")
-    block = blocks[block_key]
     t0 = time.perf_counter()
-    lsq = _job_lsq(block.data, law, seed, settings.n_starts, settings.chain)
+    lsq = report_lsq(block_key, law, seed, settings)
     t1 = time.perf_counter()
     limits = limits or settings.step_limits(law)
     post = _job_mcmc(lsq, seed, settings.n_steps, settings.n_walkers, *limits)

@@ -32,9 +32,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _report_fit import report_lsq
+
 import fitdf.chains.voltage as voltage
 from fitdf.inference.mcmc import LogPosterior
-from fitdf.report.build import BLOCKS, ReportSettings, _job_lsq
+from fitdf.report.build import ReportSettings
 
 PARTS = ("branch", "kernel", "secant", "place")
 
@@ -51,11 +53,7 @@ def _timed(spent: dict, label: str, fn):
 
 
 def run(block_key: str, law: str, n_walkers: int, seconds: float) -> None:
-    blocks = {b.key: b for b in BLOCKS}
-    if block_key not in blocks:
-        raise SystemExit(f"unknown block {block_key!r}; choose from {', '.join(blocks)}")
-    settings = ReportSettings.for_run()
-    lsq = _job_lsq(blocks[block_key].data, law, 0, settings.n_starts, settings.chain)
+    lsq = report_lsq(block_key, law, 0, ReportSettings.for_run())
     problem = lsq.problem.warm_started(lsq.internal)
     logpost = LogPosterior(problem, logit=True, marginal_noise=True)
     rng = np.random.default_rng(1)

@@ -33,16 +33,17 @@ from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _report_fit import report_lsq
+
 from fitdf.inference import problem as problem_module
 from fitdf.inference.mcmc import LogPosterior
-from fitdf.report.build import BLOCKS, ReportSettings, _job_lsq, _job_mcmc
+from fitdf.report.build import ReportSettings, _job_mcmc
 
 
 def record_chain(block_key: str, law: str, seed: int, max_steps: int):
     """The least-squares result and every ``(internal, prediction)`` the MCMC job evaluated."""
-    block = {b.key: b for b in BLOCKS}[block_key]
     settings = ReportSettings.for_run()
-    lsq = _job_lsq(block.data, law, seed, settings.n_starts, settings.chain)
+    lsq = report_lsq(block_key, law, seed, settings)
     seen_x, seen_m = [], []
     predict = problem_module.FitProblem.predict
 
