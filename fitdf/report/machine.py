@@ -33,13 +33,9 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
-def _llvm_host_cpu() -> str:
-    """The CPU name numba compiles for (LLVM's host CPU; llvmlite comes with numba)."""
-    return llvm.get_host_cpu_name()
-
-
 def machine_record() -> dict:
-    """The CPU, LLVM's name for it, the Python version and the numerical libraries' versions."""
+    """The CPU, LLVM's name for it (numba's target; llvmlite comes with numba), the Python
+    version and the numerical libraries' versions."""
     versions = {}
     for name in _STACK:
         try:
@@ -49,7 +45,7 @@ def machine_record() -> dict:
     return {
         "cpu": _cpu_model(),
         "architecture": platform.machine(),
-        "llvm_cpu": _llvm_host_cpu(),
+        "llvm_cpu": llvm.get_host_cpu_name(),  # what numba compiles for
         "python": sys.version.split()[0],
         "libraries": versions,
     }
