@@ -1,6 +1,9 @@
-"""ArviZ, imported without its once-a-day notice about its own coming refactor.
+"""ArviZ, imported when first needed and without its once-a-day notice about its own refactor.
 
-ArviZ 0.x warns (a multi-line ``FutureWarning``, on import, once a day) that its 1.0 will
+ArviZ takes 1-3 s to import (with its plotting modules; more than anything else a
+least-squares fit imports) and only the MCMC diagnostics and the LOO comparisons use it, so
+:func:`arviz` imports it on its first call: ``fitdf fit --method lsq`` and ``fitdf
+limit-cycle`` never load it. ArviZ 0.x warns (a multi-line ``FutureWarning``, on import, once a day) that its 1.0 will
 change its interface. That concerns fitdf's maintainers, not a user's result, so only
 that warning is silenced, only while ArviZ is imported; every other warning of ArviZ
 still shows. fitdf is tested with ArviZ 0.x and pins ``arviz<1`` (pyproject.toml).
@@ -21,14 +24,26 @@ import warnings
 #: The notice (message start; ArviZ 0.23 begins it with a newline).
 REFACTOR_NOTICE = r"\s*ArviZ is undergoing a major refactor"
 
-with warnings.catch_warnings():
-    warnings.filterwarnings("ignore", message=REFACTOR_NOTICE, category=FutureWarning)
-    import arviz as az
-
-__all__ = ["az", "REFACTOR_NOTICE", "walkers_as_chains"]
+__all__ = ["arviz", "REFACTOR_NOTICE", "walkers_as_chains", "without_refactor_notice"]
 
 #: The start of ArviZ's log line about an array's shape (``arviz.stats.stats_utils``).
 SHAPE_NOTICE = "Shape validation failed"
+
+
+@contextlib.contextmanager
+def without_refactor_notice():
+    """Within: ArviZ's refactor notice is ignored (for an import that may import ArviZ first)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=REFACTOR_NOTICE, category=FutureWarning)
+        yield
+
+
+def arviz():
+    """The ``arviz`` module, imported on the first call without its refactor notice."""
+    with without_refactor_notice():
+        import arviz  # here, not at the top: the module docstring says why
+
+    return arviz
 
 
 class _DropShapeNotice(logging.Filter):
@@ -41,7 +56,7 @@ def walkers_as_chains():
     """Within: ArviZ's logger drops its shape notice (module docstring); nothing else."""
     # ArviZ 0.x logs through its own ``Logger("arviz")`` instance, ``arviz._log``, which
     # is not the one ``logging.getLogger("arviz")`` returns
-    logger = getattr(az, "_log", None) or logging.getLogger("arviz")
+    logger = getattr(arviz(), "_log", None) or logging.getLogger("arviz")
     drop = _DropShapeNotice()
     logger.addFilter(drop)
     try:

@@ -382,8 +382,8 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
     from tqdm.auto import tqdm
 
     from fitdf._json import clean
+    from fitdf.executor import Executor
     from fitdf.inference.ranking import compare_fits
-    from fitdf.report.executor import Executor
 
     per_fit = len(models) * len(args.chain) * (2 if args.method == "both" else 1)
     records, summary = [], []

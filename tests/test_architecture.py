@@ -30,9 +30,13 @@ def test_every_import_points_down():
     assert "1 kept, 0 broken" in run.stdout
 
 
-#: The function-level imports allowed, by file: an optional dependency, imported only by the
-#: run that uses it (Dask: slow to import, and only a report on a cluster needs it).
-ALLOWED_HIDDEN = {"fitdf/report/executor.py": {"import distributed"}}
+#: The function-level imports allowed, by file: a dependency slow to import, imported only by
+#: the run that uses it (Dask: only a report on a cluster needs it; ArviZ, 1-3 s: only MCMC
+#: and LOO comparisons, not a least-squares fit, tests/test_cli_fast.py).
+ALLOWED_HIDDEN = {
+    "fitdf/executor.py": {"import distributed"},
+    "fitdf/_arviz.py": {"import arviz"},
+}
 
 #: And the command line's subcommand handlers (module-level ``cmd_*`` functions of
 #: fitdf/cli.py): each imports what its subcommand needs as the first statements of its

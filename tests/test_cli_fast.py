@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -93,6 +94,17 @@ def test_bad_data_fail_before_the_fitting_stack_loads(tmp_path):
     )  # (the data were read: the probe is not vacuous)
 
 
+def test_a_least_squares_fit_loads_neither_arviz_nor_the_report():
+    """ArviZ (1-3 s to import) is for MCMC and LOO only, the report's plotting stack for the
+    report: ``fitdf fit --method lsq`` imports neither (``fitdf._arviz.arviz``, ``fitdf.executor``)."""
+    fit = ["fit", "B.1", "--models", "constant_width", "--chain", "winding", "--no-cv", "--quiet"]
+    found = _probe([[*fit, "--method", "lsq"]])
+    assert [c for c, _ in found["codes"]] == [0]
+    assert "fitdf.inference.lsq" in found["modules"]  # (it fitted: the probe is not vacuous)
+    loaded = [m for m in found["modules"] if m.startswith(("arviz", "corner", "fitdf.report"))]
+    assert not loaded, loaded
+
+
 def test_python_dash_m_fitdf_prints_the_version():
     run = subprocess.run(
         [sys.executable, "-m", "fitdf", "--version"], capture_output=True, text=True, timeout=120
@@ -115,10 +127,14 @@ def test_largest_seed_is_numpys():
 
 
 def test_arvizs_refactor_notice_is_filtered_and_nothing_else(tmp_path):
-    """ArviZ warns once a day on import (a stamp in the user's cache): a fresh cache shows it."""
+    """ArviZ warns once a day on import (a stamp in the user's cache): a fresh cache shows it.
+
+    Both ways fitdf imports ArviZ stay quiet: on first use (``fitdf._arviz.arviz``, the
+    MCMC diagnostics) and through ``corner`` (the corner plots)."""
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache"), "PYTHONWARNINGS": "always"}
 
     def stderr_of(code: str) -> str:
+        shutil.rmtree(tmp_path / "cache", ignore_errors=True)  # fresh: the notice is due
         run = subprocess.run(
             [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env
         )
@@ -126,9 +142,9 @@ def test_arvizs_refactor_notice_is_filtered_and_nothing_else(tmp_path):
         return run.stderr
 
     assert "ArviZ is undergoing a major refactor" in stderr_of("import arviz")  # the control
-    (tmp_path / "cache").rename(tmp_path / "used")  # fresh again
-    quiet = stderr_of(
-        "import warnings; warnings.warn('still shown', UserWarning)\n"
-        "import fitdf.plots.posterior, fitdf.inference.mcmc, fitdf.inference.ranking"
-    )
-    assert "ArviZ is undergoing" not in quiet and "still shown" in quiet, quiet
+    for imports in (
+        "import fitdf.inference.mcmc as m; m.arviz()",
+        "import fitdf.plots.posterior, fitdf.inference.ranking",
+    ):
+        quiet = stderr_of(f"import warnings; warnings.warn('still shown', UserWarning); {imports}")
+        assert "ArviZ is undergoing" not in quiet and "still shown" in quiet, (imports, quiet)

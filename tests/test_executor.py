@@ -12,11 +12,11 @@ import pandas as pd
 import pytest
 from tiny_settings import TINY
 
-import fitdf.report.executor as executor
+import fitdf.executor as executor
 from fitdf import cli
 from fitdf.errors import OptionError
+from fitdf.executor import Executor, RemoteTraceback
 from fitdf.report.build import generate_report
-from fitdf.report.executor import Executor, RemoteTraceback
 
 distributed = pytest.importorskip("distributed")
 

@@ -91,7 +91,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import expit, log_expit, logit
 
-from fitdf._arviz import az, walkers_as_chains
+from fitdf._arviz import arviz, walkers_as_chains
 from fitdf.inference.caveats import (
     identifiability_warnings,
     noise_bound_warnings,
@@ -274,6 +274,7 @@ def autocorr_time(chain) -> np.ndarray:
 def chain_diagnostics(samples, names) -> dict:
     """Rank-normalised R-hat and bulk ESS per parameter (ArviZ) of an emcee array
     ``(draw, walker, parameter)``, walkers taken as chains."""
+    az = arviz()
     with walkers_as_chains():
         full = az.from_dict(posterior=_as_arviz(samples, names))
         rhat = az.rhat(full)
@@ -297,6 +298,7 @@ def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
     ``post_burn`` and ``loo_draws`` are emcee arrays ``(draw, walker, parameter)``; ArviZ
     wants ``(chain, draw)``, so walkers become ArviZ chains.
     """
+    az = arviz()
     with warnings.catch_warnings(record=True) as w, walkers_as_chains():
         warnings.simplefilter("always")
         diag = chain_diagnostics(post_burn, names)

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from fitdf._arviz import az
+from fitdf._arviz import arviz
 from fitdf.chains import get_chain
 from fitdf.data.cores import winding_resistance_estimate
 from fitdf.errors import OptionError
@@ -95,7 +95,7 @@ def fit_all(
     """Fit every model x chain x method on the same rows; returns the results in that order.
 
     ``runner``, if given, runs the fits: a callable ``runner(jobs, desc) -> results`` on
-    ``{key: (function, args)}`` such as :meth:`fitdf.report.executor.Executor.run` (worker
+    ``{key: (function, args)}`` such as :meth:`fitdf.executor.Executor.run` (worker
     processes or a Dask cluster; the same numbers as in this process).
     """
     return _fit_jobs(data, models, chains, methods, seed, progress, runner, False, kw)
@@ -241,7 +241,7 @@ def _elpd_data(result):
     loo_i = np.asarray(result.diagnostics.get("pointwise_elpd_loo", []), float)
     if not loo_i.size:
         return None
-    return az.ELPDData(
+    return arviz().ELPDData(
         data=[
             float(np.sum(loo_i)),
             float(np.sqrt(loo_i.size * np.var(loo_i))),
@@ -263,7 +263,7 @@ def _loo_comparison(results) -> dict:
     elpd = {i: e for i, r in enumerate(results) if (e := _elpd_data(r)) is not None}
     if not elpd or len({e["loo_i"].size for e in elpd.values()}) != 1:
         return out
-    cmp = az.compare(elpd, ic="loo", method="stacking", scale="log")
+    cmp = arviz().compare(elpd, ic="loo", method="stacking", scale="log")
     for i in elpd:
         out["elpd_loo_diff"][i] = cmp.loc[i, "elpd_diff"]
         out["elpd_loo_dse"][i] = cmp.loc[i, "dse"]
@@ -276,7 +276,7 @@ def _loo_tie(a, b) -> bool:
     (:func:`arviz.compare` on the pair); identical pointwise elpd is a tie."""
     if a is None or b is None or a["loo_i"].size != b["loo_i"].size:
         return False
-    row = az.compare({0: a, 1: b}, ic="loo", method="stacking", scale="log").iloc[1]
+    row = arviz().compare({0: a, 1: b}, ic="loo", method="stacking", scale="log").iloc[1]
     return bool(abs(row["elpd_diff"]) < 2 * row["dse"] or row["elpd_diff"] == 0)
 
 

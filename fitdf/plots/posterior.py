@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-# isort: off
-# corner imports ArviZ: fitdf._arviz imports it first, without its refactor notice
-import fitdf._arviz  # noqa: F401
-import corner
-
-# isort: on
+from fitdf._arviz import without_refactor_notice
 from fitdf.plots._figure import new_figure
+
+with without_refactor_notice():  # corner imports ArviZ
+    import corner
 
 __all__ = ["plot_corner"]
 

@@ -13,7 +13,7 @@ the models; predicts across source impedance; compares limit cycles with Tables
   code-hosting site) and as one self-contained HTML file.
 
 Cost and parallelism
-    Fits are independent jobs run by :class:`fitdf.report.executor.Executor`: in
+    Fits are independent jobs run by :class:`fitdf.executor.Executor`: in
     ``workers`` local processes, or on a Dask cluster given its ``scheduler`` address;
     each job depends only on its inputs and the seed, so the report is identical to a
     serial run (``workers=1``). Figures are drawn where their job runs and sent back as
@@ -46,6 +46,7 @@ from pathlib import Path
 
 from fitdf import __version__
 from fitdf.errors import OptionError
+from fitdf.executor import Executor
 from fitdf.inference.api import DEFAULT_CHAIN, fit
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.material import with_material
@@ -55,7 +56,6 @@ from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_tab
 from fitdf.models import get_model, model_names
 from fitdf.report import render
 from fitdf.report import sections as rs
-from fitdf.report.executor import Executor
 from fitdf.report.machine import machine_record
 
 __all__ = [

@@ -1,9 +1,11 @@
-"""One executor for the report's jobs: serially, in local worker processes, or on a Dask cluster.
+"""One executor for the jobs of a report or of ``fitdf fit``: serially, in local processes, or on Dask.
 
 A job is ``(fn, args)`` under a key. :meth:`Executor.run` returns every job's result under
 its key, in the jobs' order whatever order they finish in, and records each job's run time
 in ``Executor.seconds``; jobs are submitted in the dict's order (put long ones first). Jobs
-depend only on their arguments, so where they run changes no number.
+depend only on their arguments, so where they run changes no number. It knows jobs, not
+fits: it sits below every layer, so that ``fitdf fit`` imports it without the report's
+plotting stack.
 
 Where the jobs run
     ``workers=1``: in this process. ``workers=N``: in N local processes (spawned: fresh
