@@ -1,6 +1,9 @@
 """Compiled kernels of the ``voltage`` chain (:mod:`fitdf.chains.voltage`).
 
-Each ``numba.njit(cache=True)`` function is compiled for one signature (float64 arrays):
+Each ``numba.njit(cache=True)`` function is compiled for one signature (float64 arrays
+that may be written to: a read-only array, such as a broadcast view, is another type to numba
+and would compile a kernel a second time, ~10 s on a fresh install; :func:`kernel_array`
+makes the tables so):
 
 * :func:`place_nodes` -- where to tabulate a branch, from a table of it;
 * :func:`half_periods` -- the rising half period of many points at once (rows in a
@@ -18,7 +21,26 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["place_nodes", "half_periods", "half_period_wave", "secant_update", "N_OUT"]
+__all__ = [
+    "place_nodes",
+    "half_periods",
+    "half_period_wave",
+    "secant_update",
+    "kernel_array",
+    "N_OUT",
+]
+
+
+def kernel_array(a, shape=None) -> np.ndarray:
+    """``a`` (broadcast to ``shape`` if given) as the kernels' one array type: float64,
+    C-contiguous and writeable (copied only when it is not already)."""
+    a = np.asarray(a, dtype=float)
+    if shape is not None and a.shape != tuple(shape):
+        a = np.broadcast_to(a, shape)
+    if a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(a, order="C")
+
 
 #: Columns of :func:`half_periods`' output: peak current, flux harmonics (sin, cos),
 #: number of steps.

@@ -108,7 +108,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fitdf.chains._periodic import N_OUT, half_period_wave, half_periods, place_nodes, secant_update
+from fitdf.chains._periodic import (
+    N_OUT,
+    half_period_wave,
+    half_periods,
+    kernel_array,
+    place_nodes,
+    secant_update,
+)
 from fitdf.chains.base import R_MIN, MeasurementChain, OperatingPoint, as_points
 from fitdf.chains.winding import WindingChain
 from fitdf.errors import ModelError
@@ -176,8 +183,7 @@ class _Points:
         ``rough``, the law's :meth:`~fitdf.models.base.HysteresisModel.rough_branch`."""
         kw = {k: v[idx, None] for k, v in self.kw.items()}
         law = self.model.rough_branch if rough else self.model.ascending_branch
-        B = law(x, a[:, None], self.f[idx, None], **kw)
-        return np.ascontiguousarray(np.broadcast_to(B, x.shape), dtype=float)
+        return kernel_array(law(x, a[:, None], self.f[idx, None], **kw), x.shape)
 
     def run(self, idx, a, u, steps, refine_factor, rough=False, B=None):
         """Kernel on tables at nodes ``u`` (``(m, M)`` or ``(M,)``): ``(G, DF without gain, B)``;
@@ -214,9 +220,7 @@ def _place(pts, idx, I, st):
     loop), again, up to 3 more times. Returns the nodes and where that was needed.
     """
     w = np.asarray(st.weights, float)
-    u0 = np.ascontiguousarray(
-        np.broadcast_to(np.linspace(-1.0, 1.0, st.placement_nodes), (idx.size, st.placement_nodes))
-    )
+    u0 = kernel_array(np.linspace(-1.0, 1.0, st.placement_nodes), (idx.size, st.placement_nodes))
     u1 = np.empty((idx.size, st.nodes))
     place_nodes(u0, pts.branch(idx, I[:, None] * u0, I), w, u1)
     B1 = pts.branch(idx, I[:, None] * u1, I)
@@ -660,7 +664,7 @@ def steady_state_waveform(
         up = np.zeros((K, 3))
         r = half_period_wave(
             x,
-            np.ascontiguousarray(np.broadcast_to(B, x.shape), float),
+            kernel_array(B, x.shape),
             V0,
             R0,
             w,

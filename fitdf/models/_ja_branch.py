@@ -221,14 +221,18 @@ def _steady_rows(A, lam, a, k, c, kap, tol, nmin, cap):
         n = n if n > 1 else 0
         o = off[i]
         off[i + 1] = o + 1 + 3 * n
+        # element loops, not slice assignments: those compile numba's shape-mismatch error
+        # messages (string formatting, ~5 s of a fresh install's compilation)
         if off[i + 1] > buf.size:
             grown = np.empty(max(2 * buf.size, off[i + 1]))
-            grown[:o] = buf[:o]
+            for j in range(o):
+                grown[j] = buf[j]
             buf = grown
         buf[o] = n
-        buf[o + 1 : o + 1 + n] = rec_e[:n]
-        buf[o + 1 + n : o + 1 + 2 * n] = rec_m[:n]
-        buf[o + 1 + 2 * n : o + 1 + 3 * n] = rec_d[:n]
+        for j in range(n):
+            buf[o + 1 + j] = rec_e[j]
+            buf[o + 1 + n + j] = rec_m[j]
+            buf[o + 1 + 2 * n + j] = rec_d[j]
     return buf[: off[A.size]], off
 
 

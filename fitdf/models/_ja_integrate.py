@@ -324,7 +324,8 @@ def _steady(A, lam, a, k, c, kap, tol, nmin, rec_e, rec_m, rec_d):
         rec_d,
     )
     if not one_stage:
-        x, slope, n = _solve(
-            A, lam, a, k, c, kap, x, slope, tol, nmin, _CLOSURE * lam, True, rec_e, rec_m, rec_d
+        record = not one_stage  # True, but typed bool: the literal True would compile _solve
+        x, slope, n = _solve(  # and _half_cycle a second time
+            A, lam, a, k, c, kap, x, slope, tol, nmin, _CLOSURE * lam, record, rec_e, rec_m, rec_d
         )
     return n if n > 1 else -1

@@ -216,7 +216,9 @@ def preisach_branch(x, amplitude, *, i_c, sigma_c, i_i):
         *(np.asarray(v, dtype=float) for v in (x, amplitude, i_c, sigma_c, i_i))
     )
     shape = arrays[0].shape
-    flat = [np.ascontiguousarray(v).reshape(-1) for v in arrays]
+    # writeable copies where needed: a read-only array is another type to numba (a second
+    # compilation of the loop)
+    flat = [np.array(v, order="C").reshape(-1) for v in arrays]
     out = np.empty(flat[0].size)
     _branch_loop(*flat, out)
     return out.reshape(shape)
@@ -315,7 +317,15 @@ def _irreversible_df(A, m, s, t, gl_x, gl_w, steps, bump, cuts):
         n += 2
     for j in range(n):
         cuts[j] = math.asin(min(max(cuts[j], lo), hi) / A)
-    cuts.sort()
+    # insertion sort of the _N_CUTS = 46 cuts (n, the whole array): ``cuts.sort()`` would
+    # compile numba's quicksort (~3 s of a fresh install)
+    for j in range(1, n):
+        c = cuts[j]
+        i = j - 1
+        while i >= 0 and cuts[i] > c:
+            cuts[i + 1] = cuts[i]
+            i -= 1
+        cuts[i + 1] = c
     re = 0.0
     im = 0.0
     for p in range(n - 1):
