@@ -110,13 +110,14 @@ ONE_PROCESS = ("--workers", "1")
 
 
 def test_fit_prints_ranking_and_json():
-    fit_b3 = ("fit", "B.3", "--models", "constant_width", "rayleigh", "--no-cv", *ONE_PROCESS)
-    # the text through the cheap winding chain (12 s less on 2 cores; the text does not
-    # depend on the chain), the JSON through the default one
-    p = run(*fit_b3, "--chain", "winding", "--quiet")
+    fit_b3 = ("fit", "B.3", "--models", "constant_width", "rayleigh", "--chain", "winding")
+    fit_b3 += ("--no-cv", *ONE_PROCESS)
+    # through the cheap winding chain (12 s less a run on 2 cores; neither the text nor the
+    # JSON depends on the chain): the default chain's JSON is test_json_schemas.py's fit-B.1
+    p = run(*fit_b3, "--quiet")
     assert p.returncode == 0, p.stderr
     assert "Ranking on B.3" in p.stdout and "Best model" in p.stdout
-    j = json.loads(run(*fit_b3, "--json").stdout)
+    j = json.loads(run_here(*fit_b3, "--json").stdout)  # (in this process: ~4 s of start-up less)
     assert [r["rank"] for r in j["ranking"]] == [1, 2]
     assert {f["model"] for f in j["fits"]} == {"constant_width", "rayleigh"}
     for f in j["fits"]:
@@ -333,5 +334,5 @@ def test_limit_cycle_warns_of_an_unstable_plant(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "Warning: the plant is unstable in open loop" in p.stdout
     assert "does not mean the loop is stable" in p.stdout
-    j = json.loads(run(*args, *fast, "--json").stdout)
+    j = json.loads(run_here(*args, *fast, "--json").stdout)  # (in this process)
     assert len(j["warnings"]) == 1 and "unstable" in j["warnings"][0]

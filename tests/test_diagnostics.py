@@ -185,7 +185,14 @@ def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch, marginal)
     spy("autocorr_time", autocorr_time)
     n_steps, n_walkers = 150, 16
     r = fit_mcmc(
-        problem, lsq, seed=1, n_steps=n_steps, n_walkers=n_walkers, marginal_noise=marginal
+        problem,
+        lsq,
+        seed=1,
+        n_steps=n_steps,
+        n_walkers=n_walkers,
+        marginal_noise=marginal,
+        pilot_steps=50,  # (the pilot is not what is tested here)
+        max_pilot_rounds=1,
     )
     # the sampler's coordinates: the parameters, with the noise scales unless integrated out
     names = problem.names + ([] if marginal else ["sigma_magnitude", "sigma_phase_deg"])

@@ -30,6 +30,9 @@ MINI = ReportSettings(
     cross=(),
     limit_cycles=False,
     workers=1,
+    # the cheap chain and no refit through another: what is tested is the folder's swap
+    chain="winding",
+    approximate_chain=None,
 )
 
 
