@@ -31,11 +31,13 @@ def test_every_import_points_down():
 
 
 #: The function-level imports allowed, by file: a dependency slow to import, imported only by
-#: the run that uses it (Dask: only a report on a cluster needs it; ArviZ, 1-3 s: only MCMC
-#: and LOO comparisons, not a least-squares fit, tests/test_cli_fast.py).
+#: the run that uses it (Dask: only a report on a cluster needs it; ArviZ, 1-3 s, and corner,
+#: which imports it: only MCMC, LOO comparisons and corner plots, not a least-squares fit or
+#: a limit cycle, tests/test_cli_fast.py).
 ALLOWED_HIDDEN = {
     "fitdf/executor.py": {"import distributed"},
     "fitdf/_arviz.py": {"import arviz"},
+    "fitdf/plots/posterior.py": {"import corner"},
 }
 
 #: And the command line's subcommand handlers (module-level ``cmd_*`` functions of

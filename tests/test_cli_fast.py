@@ -94,13 +94,17 @@ def test_bad_data_fail_before_the_fitting_stack_loads(tmp_path):
     )  # (the data were read: the probe is not vacuous)
 
 
-def test_a_least_squares_fit_loads_neither_arviz_nor_the_report():
-    """ArviZ (1-3 s to import) is for MCMC and LOO only, the report's plotting stack for the
-    report: ``fitdf fit --method lsq`` imports neither (``fitdf._arviz.arviz``, ``fitdf.executor``)."""
-    fit = ["fit", "B.1", "--models", "constant_width", "--chain", "winding", "--no-cv", "--quiet"]
-    found = _probe([[*fit, "--method", "lsq"]])
-    assert [c for c, _ in found["codes"]] == [0]
-    assert "fitdf.inference.lsq" in found["modules"]  # (it fitted: the probe is not vacuous)
+def test_a_least_squares_fit_and_a_limit_cycle_load_neither_arviz_nor_the_report():
+    """ArviZ (1-3 s to import) is for MCMC, LOO and corner plots only, the report's stack for
+    the report: ``fitdf fit --method lsq`` and ``fitdf limit-cycle`` import neither
+    (``fitdf._arviz.arviz``, ``fitdf.plots.posterior._corner``, ``fitdf.executor``)."""
+    fast = ["--chain", "winding", "--quiet"]
+    fit = ["fit", "B.1", "--models", "constant_width", "--method", "lsq", "--no-cv", *fast]
+    cycle = ["limit-cycle", "B.1", "--plant", "K/((1+s)(1+0.25s)(1+1.1s))", "--gain", "100", *fast]
+    found = _probe([fit, [*cycle, "--model", "constant_width"]])
+    assert [c for c, _ in found["codes"]] == [0, 0]
+    # (it fitted and drew: the probe is not vacuous)
+    assert {"fitdf.inference.lsq", "fitdf.loop.fitted", "fitdf.plots"} <= set(found["modules"])
     loaded = [m for m in found["modules"] if m.startswith(("arviz", "corner", "fitdf.report"))]
     assert not loaded, loaded
 
@@ -144,7 +148,7 @@ def test_arvizs_refactor_notice_is_filtered_and_nothing_else(tmp_path):
     assert "ArviZ is undergoing a major refactor" in stderr_of("import arviz")  # the control
     for imports in (
         "import fitdf.inference.mcmc as m; m.arviz()",
-        "import fitdf.plots.posterior, fitdf.inference.ranking",
+        "import fitdf.plots.posterior as p; p._corner()",
     ):
         quiet = stderr_of(f"import warnings; warnings.warn('still shown', UserWarning); {imports}")
         assert "ArviZ is undergoing" not in quiet and "still shown" in quiet, (imports, quiet)

@@ -7,10 +7,16 @@ import numpy as np
 from fitdf._arviz import without_refactor_notice
 from fitdf.plots._figure import new_figure
 
-with without_refactor_notice():  # corner imports ArviZ
-    import corner
-
 __all__ = ["plot_corner"]
+
+
+def _corner():
+    """The ``corner`` module, imported on the first corner plot: it imports ArviZ (1-3 s),
+    which no other figure needs (``fitdf limit-cycle`` draws without it)."""
+    with without_refactor_notice():
+        import corner
+
+    return corner
 
 
 def _decade(x):
@@ -58,7 +64,7 @@ def plot_corner(posterior, max_draws=4000, truths=None, title=None):
     P = samples.shape[1]
     size = max(6.0, 1.55 * P + 1.0)
     fig = new_figure((size, size), layout=None)
-    corner.corner(
+    _corner().corner(
         samples,
         fig=fig,
         labels=labels,
