@@ -1,9 +1,12 @@
 """ArviZ, imported when first needed and without its once-a-day notice about its own refactor.
 
 ArviZ takes 1-3 s to import (with its plotting modules; more than anything else a
-least-squares fit imports) and only the MCMC diagnostics and the LOO comparisons use it, so
-:func:`arviz` imports it on its first call: ``fitdf fit --method lsq`` and ``fitdf
-limit-cycle`` never load it. ArviZ 0.x warns (a multi-line ``FutureWarning``, on import, once a day) that its 1.0 will
+least-squares fit imports) and only the MCMC diagnostics, the LOO comparisons and the corner
+plots use it, so :func:`arviz` imports it on its first call (and
+:mod:`fitdf.plots.posterior` imports ``corner``, which imports ArviZ, on the first corner
+plot): ``fitdf fit --method lsq`` and ``fitdf limit-cycle`` never load it.
+
+ArviZ 0.x warns (a multi-line ``FutureWarning``, on import, once a day) that its 1.0 will
 change its interface. That concerns fitdf's maintainers, not a user's result, so only
 that warning is silenced, only while ArviZ is imported; every other warning of ArviZ
 still shows. fitdf is tested with ArviZ 0.x and pins ``arviz<1`` (pyproject.toml).

@@ -2,8 +2,8 @@
 
 Each ``numba.njit(cache=True)`` function is compiled for one signature (float64 arrays
 that may be written to: a read-only array, such as a broadcast view, is another type to numba
-and would compile a kernel a second time, ~10 s on a fresh install; :func:`kernel_array`
-makes the tables so):
+and would compile a kernel a second time on a fresh install; :func:`kernel_array` makes the
+tables so):
 
 * :func:`place_nodes` -- where to tabulate a branch, from a table of it;
 * :func:`half_periods` -- the rising half period of many points at once (rows in a

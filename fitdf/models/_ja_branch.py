@@ -222,7 +222,7 @@ def _steady_rows(A, lam, a, k, c, kap, tol, nmin, cap):
         o = off[i]
         off[i + 1] = o + 1 + 3 * n
         # element loops, not slice assignments: those compile numba's shape-mismatch error
-        # messages (string formatting, ~5 s of a fresh install's compilation)
+        # messages (its string formatting) on a fresh install
         if off[i + 1] > buf.size:
             grown = np.empty(max(2 * buf.size, off[i + 1]))
             for j in range(o):

@@ -318,7 +318,7 @@ def _irreversible_df(A, m, s, t, gl_x, gl_w, steps, bump, cuts):
     for j in range(n):
         cuts[j] = math.asin(min(max(cuts[j], lo), hi) / A)
     # insertion sort of the _N_CUTS = 46 cuts (n, the whole array): ``cuts.sort()`` would
-    # compile numba's quicksort (~3 s of a fresh install)
+    # compile numba's quicksort on a fresh install
     for j in range(1, n):
         c = cuts[j]
         i = j - 1
