@@ -216,8 +216,8 @@ def preisach_branch(x, amplitude, *, i_c, sigma_c, i_i):
         *(np.asarray(v, dtype=float) for v in (x, amplitude, i_c, sigma_c, i_i))
     )
     shape = arrays[0].shape
-    # writeable copies where needed: a read-only array is another type to numba (a second
-    # compilation of the loop)
+    # writeable copies, always (a broadcast input is read-only, another type to numba: a
+    # second compilation of the loop; copying is small beside two bivariate normals a point)
     flat = [np.array(v, order="C").reshape(-1) for v in arrays]
     out = np.empty(flat[0].size)
     _branch_loop(*flat, out)
