@@ -519,14 +519,18 @@ def _material_text(result) -> str:
 
 
 def cmd_report(args):
-    from fitdf.report.build import ReportSettings, generate_report
+    from fitdf.report.build import ReportSettings, generate_report, job_cache
 
+    settings = ReportSettings.for_run(args.quick, scheduler=args.scheduler)
+    # kept on ``args``: after Ctrl-C, the one line says what the cache kept
+    args.job_cache = None if args.no_cache else job_cache(args.cache, settings, args.seed)
     out = generate_report(
         out_dir=args.out,
         seed=args.seed,
         quick=args.quick,
         progress=not args.quiet,
-        settings=ReportSettings.for_run(args.quick, scheduler=args.scheduler),
+        settings=settings,
+        cache=args.job_cache,
     )
     print(f"report written to {out}/ (README.md, index.html, results.json, figures/)")
     return 0
@@ -762,6 +766,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="run the fits on this Dask cluster, e.g. tcp://host:8786 (default: the "
         "FITDF_SCHEDULER environment variable, else local processes; needs fitdf[dask])",
     )
+    kept = sp.add_mutually_exclusive_group()
+    kept.add_argument(
+        "--cache",
+        default=os.environ.get("FITDF_CACHE_DIR") or None,
+        metavar="DIR",
+        help="keep finished fits here, so that a stopped or repeated run goes on from them "
+        "(default: FITDF_CACHE_DIR, else ~/.cache/fitdf/jobs; the key covers the settings, "
+        "seed, code, data and machine)",
+    )
+    kept.add_argument(
+        "--no-cache", action="store_true", help="compute every fit, keep none (for timings)"
+    )
 
     sp = add(
         "limit-cycle",
@@ -822,6 +838,8 @@ def _validate(args):
     """
     if args.command == "report":
         check_output_folder("--out", args.out, replaced=True)
+        if args.cache is not None and not args.no_cache:
+            check_output_folder("--cache", args.cache)
     if getattr(args, "plot", None) is not None:
         check_output_file("--plot", args.plot)
     if getattr(args, "max_steps", None) is not None and args.max_steps < args.steps:
@@ -903,9 +921,17 @@ def _stopped_message(args, exc: BaseException) -> str:
     what = "terminated" if isinstance(exc, Terminated) else "interrupted"
     if args.command == "report":
         out = str(args.out).rstrip("/") or str(args.out)
+        cache = getattr(args, "job_cache", None)
+        kept = cache.hits + cache.written if cache is not None else 0
+        resume = (
+            f"; {kept} finished job{'s' if kept != 1 else ''} kept in {cache.root}, "
+            "the same command goes on from them"
+            if kept
+            else ""
+        )
         if Path(args.out).is_dir():  # the report is written atomically: still the old one
-            return f"fitdf: {what}; {out}/ left as it was"
-        return f"fitdf: {what}; no report written to {out}/"
+            return f"fitdf: {what}; {out}/ left as it was{resume}"
+        return f"fitdf: {what}; no report written to {out}/{resume}"
     if args.command == "fit":
         return f"fitdf: {what}; no results printed"
     return f"fitdf: {what}"

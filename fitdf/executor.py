@@ -12,6 +12,12 @@ Where the jobs run
     interpreters, no state copied from this one). ``scheduler="tcp://host:8786"``: on the Dask
     distributed cluster of that scheduler (``workers`` is then ignored); its workers need
     fitdf installed. Dask is imported only then (``pip install 'fitdf[dask]'``).
+Kept results
+    With a :class:`~fitdf.jobcache.JobCache`, a job whose result is kept there under its
+    function and key is not run (its recorded run time is the one it took), and every job
+    that finishes is kept as soon as it does, in this process: a run stopped midway keeps
+    what it finished, and the same run again computes only the rest. The cache's salt must
+    name everything the arguments are made from (:mod:`fitdf.jobcache`).
 Stopping
     Local workers ignore SIGINT (a terminal's Ctrl-C reaches every process of the group; the
     parent handles it) and are terminated, not waited for, as soon as a run stops early for
@@ -40,6 +46,7 @@ from multiprocessing.connection import wait
 from tqdm.auto import tqdm
 
 from fitdf.errors import OptionError
+from fitdf.jobcache import JobCache
 
 __all__ = ["Executor", "RemoteTraceback"]
 
@@ -146,11 +153,16 @@ class Executor:
         Address of a Dask distributed scheduler (``tcp://host:8786``); None runs locally.
     progress : bool
         A tqdm bar per :meth:`run` on stderr.
+    cache : JobCache or None
+        Where finished jobs are kept and looked up (None: every job runs).
 
     Attributes
     ----------
     seconds : dict
-        Run time of every job so far, under its key joined by spaces.
+        Run time of every job so far, under its key joined by spaces (for a job taken from
+        the cache, the time it took when it ran).
+    reused : list
+        Keys (joined by spaces) of the jobs taken from the cache.
     workers : int
         Processes the jobs run in (on a cluster: its workers when connected).
 
@@ -161,11 +173,19 @@ class Executor:
     {('a',): 8, ('b',): 9}
     """
 
-    def __init__(self, workers: int = 1, scheduler: str | None = None, progress: bool = False):
+    def __init__(
+        self,
+        workers: int = 1,
+        scheduler: str | None = None,
+        progress: bool = False,
+        cache: JobCache | None = None,
+    ):
         self.workers = max(1, int(workers))
         self.scheduler = scheduler or None
         self.progress = progress
+        self.cache = cache
         self.seconds = {}
+        self.reused = []
         self._procs = []  # (process, connection) of the local workers
         self._client = None
         self._dask = None  # the distributed module, on a cluster
@@ -239,22 +259,42 @@ class Executor:
         A job's exception is raised here (with the worker's traceback as its cause).
         """
         out = {}
+        digests = {}
+        if self.cache is not None:
+            for key, (fn, _) in jobs.items():
+                digests[key] = self.cache.digest(fn, key)
+                hit, value = self.cache.get(digests[key])
+                if hit:
+                    out[key] = value
+                    self.reused.append(" ".join(map(str, key)))
+        todo = {key: job for key, job in jobs.items() if key not in out}
+
+        def finished(key, value):
+            out[key] = value
+            if self.cache is not None:
+                self.cache.put(digests[key], value)
+            bar.update(1)
+
         with tqdm(
-            total=len(jobs), desc=desc, file=sys.stderr, disable=not self.progress, leave=True
+            total=len(jobs),
+            initial=len(jobs) - len(todo),
+            desc=desc,
+            file=sys.stderr,
+            disable=not self.progress,
+            leave=True,
         ) as bar:
             if self._client is not None:
-                self._run_dask(jobs, out, bar)
+                self._run_dask(todo, finished)
             elif self._procs:
-                self._run_local(jobs, out, bar)
+                self._run_local(todo, finished)
             else:
-                for key, (fn, args) in jobs.items():
-                    out[key] = timed(fn, *args)
-                    bar.update(1)
+                for key, (fn, args) in todo.items():
+                    finished(key, timed(fn, *args))
         for key in jobs:
             self.seconds[" ".join(map(str, key))] = round(out[key][1], 2)
         return {key: out[key][0] for key in jobs}
 
-    def _run_local(self, jobs: dict, out: dict, bar) -> None:
+    def _run_local(self, jobs: dict, finished) -> None:
         todo = iter(jobs.items())
         idle = [conn for _, conn in self._procs]
         busy = {}  # connection -> key of the job it runs
@@ -274,16 +314,14 @@ class Executor:
                     raise RuntimeError(f"a worker process died running job {key}") from None
                 if not reply[0]:
                     raise reply[1] from RemoteTraceback(reply[2])
-                out[key] = reply[1]
+                finished(key, reply[1])
                 idle.append(conn)
-                bar.update(1)
 
-    def _run_dask(self, jobs: dict, out: dict, bar) -> None:
+    def _run_dask(self, jobs: dict, finished) -> None:
         self._futures = [
             self._client.submit(timed, fn, *args, pure=False) for fn, args in jobs.values()
         ]
         keys = {fut.key: key for fut, key in zip(self._futures, jobs)}
         for fut in self._dask.as_completed(self._futures, loop=self._client.loop):
-            out[keys[fut.key]] = fut.result()
-            bar.update(1)
+            finished(keys[fut.key], fut.result())
         self._futures = []

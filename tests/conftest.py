@@ -7,13 +7,17 @@ The ``tiny_report`` fixture builds it once per process, and under pytest-xdist
 same process and the report is built once per run.
 
 On a fresh install the numba kernels are compiled once, before the test processes start
-(``pytest_configure``).
+(``pytest_configure``), and every test process keeps ``fitdf report``'s finished jobs in a
+folder of its own (``FITDF_CACHE_DIR``), never in the user's cache.
 """
 
 from __future__ import annotations
 
+import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -49,12 +53,20 @@ def _compile_the_kernels(laws=None, *, skip=()) -> None:
                 problem.objective_residuals(problem.start_internal())
 
 
+#: The job cache folder this process made for ``fitdf report`` (:func:`pytest_configure`).
+_JOB_CACHE = []
+
+
 def pytest_configure(config):
-    """On a fresh install, compile the numba kernels once before the test processes start:
+    """A job cache folder of this process's own for ``fitdf report`` (the command line's
+    default is the user's cache, which a test must neither read nor fill); then, on a fresh
+    install, compile the numba kernels once before the test processes start:
     otherwise both pytest-xdist workers, and the command-line and pool processes the tests
     start before a kernel's cache is written, each compile it (~25 s a process, measured).
     Two processes share the work (numba writes a cache file whole, by rename, so the
     kernels both compile are safe): ~13 s instead of ~22 s on two cores."""
+    _JOB_CACHE.append(tempfile.mkdtemp(prefix="fitdf-test-jobs-"))
+    os.environ["FITDF_CACHE_DIR"] = _JOB_CACHE[-1]
     if hasattr(config, "workerinput") or not _numba_cache_is_cold():
         return
     apart = subprocess.Popen(
@@ -73,19 +85,25 @@ def pytest_configure(config):
             print(f"conftest: compiling {_COMPILED_APART} apart failed (exit {apart.returncode})")
 
 
+def pytest_unconfigure(config):
+    for folder in _JOB_CACHE:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 #: Test files run in one pytest-xdist process (they share the session fixture ``tiny_report``).
 TINY_REPORT_FILES = ("test_report.py", "test_report_browser.py", "test_json_schemas.py")
 
 
 @pytest.fixture(scope="session")
 def tiny_report(tmp_path_factory) -> Path:
-    """Folder of a report generated with :data:`tiny_settings.TINY` (seed 0); read-only."""
-    from tiny_settings import TINY
+    """Folder of a report generated with :data:`tiny_settings.TINY` (seed 0); read-only.
+    Its finished jobs are kept in the sibling folder ``job-cache`` (:func:`tiny_job_cache`)."""
+    from tiny_settings import TINY, tiny_job_cache
 
     from fitdf.report.build import generate_report
 
     out = tmp_path_factory.mktemp("tiny") / "report"
-    generate_report(out, seed=0, progress=False, settings=TINY)
+    generate_report(out, seed=0, progress=False, settings=TINY, cache=tiny_job_cache(out))
     return out
 
 

@@ -208,7 +208,14 @@ LIMIT_CYCLE = {
     "--seed": choice_or_junk(["0", "7"]),
     "--plot": junk,
 }
-REPORT = {**COMMON, "--seed": junk, "--quick": None, "--scheduler": junk}
+REPORT = {
+    **COMMON,
+    "--seed": junk,
+    "--quick": None,
+    "--scheduler": junk,
+    "--cache": junk,
+    "--no-cache": None,
+}
 
 #: FITDF_FUZZ_EXAMPLES=2000 for a longer search than the default suite's.
 FUZZ = settings(

@@ -22,8 +22,12 @@ from fitdf.report.build import ReportSettings, _remove_stale, generate_report
 
 psutil = pytest.importorskip("psutil")
 
-ENV = {**os.environ, "PYTHONWARNINGS": "ignore"}
-ENV.pop("FITDF_SCHEDULER", None)
+
+def _env() -> dict:
+    """The tests' environment (its job cache folder, conftest.py), quiet and local."""
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    env.pop("FITDF_SCHEDULER", None)
+    return env
 
 
 def _interactive_signals():
@@ -39,7 +43,7 @@ def _start(*args) -> subprocess.Popen:
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env=ENV,
+        env=_env(),
         start_new_session=True,  # its own process group, as a shell runs a command
         preexec_fn=_interactive_signals,
     )
@@ -167,7 +171,7 @@ def test_a_signal_stops_a_fit(sig, code, word):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env=ENV,
+        env=_env(),
         preexec_fn=_interactive_signals,
     )
     assert proc.stdout.readline().strip() == "ready"
@@ -267,7 +271,7 @@ def test_a_stop_dropped_in_a_c_callback_is_raised_again(kind, expected):
         capture_output=True,
         text=True,
         timeout=60,
-        env=ENV,
+        env=_env(),
         preexec_fn=_interactive_signals,
     )
     assert proc.stdout.splitlines() == [*expected, "hook restored True"], proc.stderr

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +20,8 @@ from fitdf.plots.summary import CAPTION, constant_rows, plot_summary, residual_g
 from fitdf.report.build import BLOCKS, ReportSettings, generate_report
 from fitdf.report.machine import machine_record, same_machine
 
-REPO = Path(__file__).resolve().parents[1]
+TESTS = Path(__file__).resolve().parent
+REPO = TESTS.parent
 COMMITTED = REPO / "reports" / "results.json"
 
 #: Smaller still: fits of one block, no MCMC (atomic-write tests).
@@ -104,6 +108,47 @@ def test_report_writes_every_file(tiny_report, tiny_results):
         and not any(link.startswith(("/", "http")) for link in links)
     )
     assert not list(tiny_report.parent.glob(".report.*")), "temporary directories left behind"
+
+
+def test_a_report_from_its_kept_jobs_is_the_report_computed(tiny_report, tmp_path):
+    """The tiny report again, from the jobs its first build kept: every job is taken from the
+    cache, in a fresh interpreter whose string hashing differs (a key must not depend on
+    it), and every number, figure and page is the same."""
+    first = json.loads((tiny_report / "results.json").read_text())
+    assert first["timing"]["reused_jobs"] == []
+    out = tmp_path / "again"
+    code = (
+        "import sys; from pathlib import Path; sys.path.insert(0, sys.argv[1]);"
+        "from tiny_settings import TINY, tiny_job_cache;"
+        "from fitdf.report.build import generate_report;"
+        "c = tiny_job_cache(Path(sys.argv[2]));"
+        "generate_report(sys.argv[3], seed=0, progress=False, settings=TINY, cache=c);"
+        "print(c.hits, c.written)"
+    )
+    env = {**os.environ, "PYTHONHASHSEED": "4242", "PYTHONWARNINGS": "ignore"}
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(TESTS), str(tiny_report), str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    again = json.loads((out / "results.json").read_text())
+    jobs = set(first["timing"]["jobs_s"])
+    assert set(again["timing"]["reused_jobs"]) == jobs and len(jobs) >= 10
+    assert done.stdout.split() == [str(len(jobs)), "0"]
+    assert again["timing"]["jobs_s"] == first["timing"]["jobs_s"]  # the times they took
+    assert _strip_timing(again) == _strip_timing(first)
+    said = f"{len(jobs)} of {len(jobs)} jobs taken from the job cache"
+    assert said in (out / "README.md").read_text()
+    assert "taken from the job cache" not in (tiny_report / "README.md").read_text()
+    figures = sorted(p.relative_to(tiny_report).as_posix() for p in tiny_report.rglob("*.png"))
+    assert figures == sorted(p.relative_to(out).as_posix() for p in out.rglob("*.png"))
+    for name in figures:  # the summary figure is drawn again; the jobs' come from the cache
+        if name != "figures/summary.png":
+            assert (tiny_report / name).read_bytes() == (out / name).read_bytes(), name
+    assert TINY.workers == 1  # (the first build ran its jobs in-process, this one as well)
 
 
 def test_html_is_self_contained(tiny_report):

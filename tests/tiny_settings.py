@@ -3,7 +3,9 @@ test_json_schemas.py read (built once per run: the ``tiny_report`` fixture, conf
 
 from __future__ import annotations
 
-from fitdf.report.build import ReportSettings
+from pathlib import Path
+
+from fitdf.report.build import ReportSettings, job_cache
 
 #: A report small enough for unit tests; every section and every kind of figure is still
 #: produced: two blocks (one of them joint over two source impedances), least squares, a
@@ -26,3 +28,9 @@ TINY = ReportSettings(
     cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),),
     workers=1,
 )
+
+
+def tiny_job_cache(report: Path):
+    """The job cache of the tiny report in ``report`` (conftest.py's ``tiny_report``): the
+    sibling folder ``job-cache``."""
+    return job_cache(Path(report).parent / "job-cache", TINY, 0)

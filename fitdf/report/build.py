@@ -24,6 +24,13 @@ Cost and parallelism
     The refit through the approximate chain (``winding``) starts from the exact chain's
     optimum and the best point of the usual screen (:func:`_job_approx`), not from a
     full multi-start: a third of the cost.
+Kept jobs
+    Given a job cache (:class:`fitdf.jobcache.JobCache`; ``fitdf report`` keeps one in the
+    user's cache folder), every finished job is kept as it finishes and looked up before it
+    runs: a run stopped midway (Ctrl-C, SIGTERM, a crash) is resumed by the same command.
+    The key covers the job, the settings and seed, the code, the bundled data and the
+    machine (:func:`job_cache`), so a kept result is the one the job would compute again;
+    ``timing.reused_jobs`` lists them.
 Atomic output
     Everything is built in a temporary sibling of ``out_dir`` which then replaces it
     (two renames, the old report restored if the second fails): an interrupted or
@@ -42,9 +49,11 @@ import sys
 import tempfile
 import time
 from dataclasses import asdict, dataclass
+from importlib import metadata
 from pathlib import Path
 
 from fitdf import __version__
+from fitdf.data.datasets import data_dir
 from fitdf.errors import OptionError
 from fitdf.executor import Executor
 from fitdf.inference.api import DEFAULT_CHAIN, fit
@@ -53,6 +62,7 @@ from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
+from fitdf.jobcache import JobCache, default_cache_folder, files_digest
 from fitdf.models import get_model, model_names
 from fitdf.report import render
 from fitdf.report import sections as rs
@@ -489,6 +499,7 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: Executor)
     # The opening figure reads the assembled record (cheap: drawn here, not as a pool job).
     results["summary_figure"] = rs.summary_figure(results, figdir)
     timing["jobs_s"] = dict(runner.seconds)
+    timing["reused_jobs"] = list(runner.reused)
     results["timing"] = timing
     return results
 
@@ -547,6 +558,46 @@ def _swap_in(tmp: Path, out_dir: Path) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
+#: Libraries a job's result or figure depends on beyond the machine record's numerical stack:
+#: ArviZ's diagnostics decide when a chain stops, the others draw and tabulate.
+_CACHE_LIBRARIES = ("pandas", "matplotlib", "arviz", "xarray", "corner", "control", "llvmlite")
+
+
+def _versions(names) -> dict:
+    found = {}
+    for name in names:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = None
+    return found
+
+
+def job_cache(folder, settings: ReportSettings, seed: int) -> JobCache:
+    """The job cache of a report with these ``settings`` and ``seed``, in ``folder`` (None: the
+    user's cache folder, :func:`fitdf.jobcache.default_cache_folder`).
+
+    Its salt names everything the report's jobs' arguments are made from: the settings
+    (the number of local workers aside), the seed, the Dask scheduler if any, the machine
+    record, the versions of the libraries the results and figures depend on, and a digest of
+    fitdf's source and of the bundled data. Another setting, seed, cluster, CPU, library
+    version, code or data file keeps its entries apart."""
+    salt = json.dumps(
+        {
+            "settings": _settings_record(settings),
+            "seed": int(seed),
+            # a cluster's workers compute on their own CPUs, not this machine's
+            "scheduler": settings.scheduler,
+            "machine": machine_record(),
+            "libraries": _versions(_CACHE_LIBRARIES),
+            "fitdf": __version__,
+            "files": files_digest(Path(__file__).resolve().parents[1], Path(str(data_dir()))),
+        },
+        sort_keys=True,
+    )
+    return JobCache(default_cache_folder() if folder is None else folder, salt)
+
+
 def generate_report(
     out_dir="reports",
     seed: int = 0,
@@ -555,6 +606,7 @@ def generate_report(
     methods=("lsq", "mcmc"),
     *,
     settings: ReportSettings | None = None,
+    cache: JobCache | None = None,
 ) -> Path:
     """Fit, rank and plot everything and write the report into ``out_dir`` atomically.
 
@@ -575,6 +627,9 @@ def generate_report(
         ``("lsq", "mcmc")`` or ``("lsq",)``; ignored when ``quick``.
     settings : ReportSettings, optional
         Full control (overrides ``quick`` and ``methods``).
+    cache : JobCache, optional
+        Keep finished jobs there and take kept ones from it; made by :func:`job_cache` for
+        the same ``settings`` and ``seed`` (None: every job runs).
 
     Returns
     -------
@@ -596,7 +651,7 @@ def generate_report(
         os.chmod(tmp, 0o755)  # mkdtemp makes it private; the report is meant to be read
         figdir = tmp / "figures"
         figdir.mkdir()
-        with Executor(settings.workers, settings.scheduler, progress) as runner:
+        with Executor(settings.workers, settings.scheduler, progress, cache=cache) as runner:
             results = collect(settings, seed, figdir, runner)
         total = time.perf_counter() - start
         results["timing"]["total_s"] = total
@@ -616,9 +671,14 @@ def generate_report(
         raise
     if progress:
         where = f" on {settings.scheduler}" if settings.scheduler else ""
+        kept = (
+            f"; {len(runner.reused)} of {len(runner.seconds)} jobs taken from {cache.root}"
+            if cache is not None and runner.reused
+            else ""
+        )
         print(
             f"fitdf report: wrote {out_dir} in {time.perf_counter() - start:.0f} s "
-            f"({runner.workers} worker{'s' if runner.workers > 1 else ''}{where})",
+            f"({runner.workers} worker{'s' if runner.workers > 1 else ''}{where}{kept})",
             file=sys.stderr,
         )
     return out_dir

@@ -105,7 +105,8 @@ def _settings_text(res) -> list:
                 + f"; {mcmc}; {cv}",
                 f"run time {t.get('total_s', 0):.0f} s with {t.get('workers', 1)} worker process(es) "
                 f"(least squares {t.get('least_squares_s', 0):.0f} s, MCMC/CV/cross-impedance/limit cycles "
-                f"{t.get('mcmc_cv_cross_limit_s', 0):.0f} s, figures {t.get('figures_s', 0):.0f} s)",
+                f"{t.get('mcmc_cv_cross_limit_s', 0):.0f} s, figures {t.get('figures_s', 0):.0f} s)"
+                + _reused_text(t),
                 _machine_text(t.get("machine")),
                 "regenerate with `fitdf report` (same seed, CPU and libraries: the same numbers; "
                 "on another CPU the optimisers stop a few last digits apart, RMS within about "
@@ -113,6 +114,17 @@ def _settings_text(res) -> list:
             ]
         )
     ]
+
+
+def _reused_text(timing: dict) -> str:
+    """What the run took from the job cache (empty for a report computed afresh)."""
+    reused = timing.get("reused_jobs") or []
+    if not reused:
+        return ""
+    return (
+        f"; {len(reused)} of {len(timing.get('jobs_s', {}))} jobs taken from the job cache, "
+        "computed by an earlier run of the same settings, seed, code and machine"
+    )
 
 
 def _summary_table(res):

@@ -1,0 +1,170 @@
+"""Kept jobs: a finished job is not computed again, a stopped run keeps what it finished,
+and a report taken from its kept jobs is the report computed afresh."""
+
+from __future__ import annotations
+
+import operator
+import os
+import pickle
+import time
+from pathlib import Path
+
+import pytest
+
+from fitdf import cli
+from fitdf.executor import Executor
+from fitdf.jobcache import STALE_DAYS, JobCache, default_cache_folder, files_digest
+
+
+def _counted(log, value):
+    """A job that leaves a line in ``log`` each time it really runs (in any process)."""
+    with open(log, "a") as f:
+        f.write(f"{value}\n")
+    return value * 2
+
+
+def _runs(log) -> list[str]:
+    return Path(log).read_text().split() if Path(log).exists() else []
+
+
+def test_an_entry_is_found_under_its_job_and_salt_only(tmp_path):
+    cache = JobCache(tmp_path, salt="code 1")
+    d = cache.digest(pow, ("mcmc", "B.1", 0.0))
+    assert d is not None and len(d) == 64
+    assert cache.get(d) == (False, None)
+    assert cache.put(d, (1024, 0.5))
+    assert cache.get(d) == (True, (1024, 0.5)) and (cache.hits, cache.written) == (1, 1)
+    # another key (to the last digit of a number), another function, another salt: another entry
+    assert cache.digest(pow, ("mcmc", "B.1", 0.0)) == d
+    assert cache.digest(pow, ("mcmc", "B.1", 5e-324)) != d
+    assert cache.digest(pow, ("mcmc", "B.2", 0.0)) != d
+    assert cache.digest(operator.mul, ("mcmc", "B.1", 0.0)) != d
+    other = JobCache(tmp_path, salt="code 2")
+    key = ("mcmc", "B.1", 0.0)
+    assert other.digest(pow, key) != d and other.get(other.digest(pow, key))[0] is False
+    # written whole, by rename: no temporary file is left
+    assert [p.name for p in tmp_path.rglob("*") if p.is_file()] == [f"{d}.pkl"]
+
+
+def test_what_cannot_be_kept_is_a_miss_not_an_error(tmp_path):
+    cache = JobCache(tmp_path, salt="s")
+    assert cache.digest(lambda: 0, ("a",)) is None  # no name to import it by
+    assert cache.put(None, 1) is False and cache.get(None) == (False, None)
+    d = cache.digest(pow, (2, 3))
+    assert cache.put(d, lambda: 0) is False  # a result that does not pickle
+    assert not [p for p in tmp_path.rglob("*") if p.is_file()]
+    path = cache.folder / d[:2] / f"{d}.pkl"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(pickle.dumps(8)[:-3])  # damaged (a disk that filled up, say)
+    assert cache.get(d) == (False, None) and not path.exists()
+    locked = JobCache(tmp_path / "file", salt="s")
+    (tmp_path / "file").write_text("not a folder")
+    assert locked.put(locked.digest(pow, (2, 3)), 8) is False
+
+
+def test_other_salts_folders_are_removed_once_stale(tmp_path):
+    old, recent = JobCache(tmp_path, "old code"), JobCache(tmp_path, "recent code")
+    for cache in (old, recent):
+        assert cache.put(cache.digest(pow, (2, 3)), 8)
+    week = time.time() - (STALE_DAYS + 1) * 86400.0
+    os.utime(old.folder, (week, week))
+    JobCache(tmp_path, "current code")
+    assert not old.folder.exists() and recent.folder.exists()
+    assert JobCache(tmp_path, "recent code").get(recent.digest(pow, (2, 3))) == (True, 8)
+    os.utime(recent.folder, (week, week))  # its own folder is never removed, stale or not
+    assert JobCache(tmp_path, "recent code").get(recent.digest(pow, (2, 3))) == (True, 8)
+
+
+def test_files_digest_follows_the_code_and_data_not_the_compiled_files(tmp_path):
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "a.py").write_text("x = 1\n")
+    (tmp_path / "data.csv").write_text("a,b\n1,2\n")
+    first = files_digest(tmp_path)
+    (tmp_path / "pkg" / "a.nbi").write_bytes(b"compiled")
+    assert files_digest(tmp_path) == first
+    (tmp_path / "data.csv").write_text("a,b\n1,3\n")
+    assert files_digest(tmp_path) != first
+
+
+def test_default_folder_is_the_users_cache(monkeypatch, tmp_path):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert default_cache_folder() == tmp_path / "fitdf" / "jobs"
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_kept_job_is_not_run_again(tmp_path, workers):
+    log = tmp_path / "runs.log"
+    jobs = {(k,): (_counted, (str(log), k)) for k in (1, 2, 3)}
+    with Executor(workers, cache=JobCache(tmp_path / "c", "s")) as ex:
+        assert ex.run(jobs, "first") == {(1,): 2, (2,): 4, (3,): 6}
+    assert sorted(_runs(log)) == ["1", "2", "3"] and ex.reused == []
+    jobs[(4,)] = (_counted, (str(log), 4))
+    with Executor(workers, cache=JobCache(tmp_path / "c", "s")) as again:
+        assert again.run(jobs, "again") == {(1,): 2, (2,): 4, (3,): 6, (4,): 8}
+    assert sorted(_runs(log)) == ["1", "2", "3", "4"]  # only the new job ran
+    assert again.reused == ["1", "2", "3"] and set(again.seconds) == {"1", "2", "3", "4"}
+    assert again.cache.hits == 3 and again.cache.written == 1
+
+
+def test_a_run_that_stops_keeps_the_jobs_it_finished(tmp_path):
+    log = tmp_path / "runs.log"
+    jobs = {("a",): (_counted, (str(log), 1)), ("bad",): (operator.truediv, (1, 0))}
+    cache = JobCache(tmp_path / "c", "s")
+    with pytest.raises(ZeroDivisionError), Executor(1, cache=cache) as ex:
+        ex.run(jobs, "stops")
+    assert cache.written == 1
+    jobs[("bad",)] = (operator.truediv, (1, 2))
+    with Executor(1, cache=JobCache(tmp_path / "c", "s")) as ex:
+        assert ex.run(jobs, "resumed") == {("a",): 2, ("bad",): 0.5}
+    assert _runs(log) == ["1"] and ex.reused == ["a"]
+
+
+def test_the_stop_message_says_what_was_kept(tmp_path):
+    args = cli.build_parser().parse_args(["report", "--out", str(tmp_path / "r")])
+    assert cli._stopped_message(args, KeyboardInterrupt()) == (
+        f"fitdf: interrupted; no report written to {tmp_path / 'r'}/"
+    )
+    args.job_cache = JobCache(tmp_path / "c", "s")
+    args.job_cache.written, args.job_cache.hits = 3, 2
+    assert cli._stopped_message(args, cli.Terminated()) == (
+        f"fitdf: terminated; no report written to {tmp_path / 'r'}/; 5 finished jobs kept in "
+        f"{tmp_path / 'c'}, the same command goes on from them"
+    )
+
+
+def test_cache_options(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("FITDF_CACHE_DIR", str(tmp_path / "env"))
+    parse = cli.build_parser().parse_args
+    assert parse(["report"]).cache == str(tmp_path / "env")
+    assert parse(["report", "--cache", "x"]).cache == "x"
+    assert parse(["report", "--no-cache"]).no_cache
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    for argv, words in (
+        (["--cache", str(a_file)], "--cache"),
+        (["--cache", ""], "--cache: empty path"),
+        (["--cache", "x", "--no-cache"], "not allowed with"),
+    ):
+        out = tmp_path / "out"
+        code = cli.main(["report", "--out", str(out), "--quiet", *argv])
+        err = capsys.readouterr().err
+        assert code == 2 and not out.exists(), argv
+        assert words in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_reports_cache_is_its_settings_seed_and_clusters_own(tmp_path):
+    from dataclasses import replace
+
+    from fitdf.report.build import ReportSettings, job_cache
+
+    base = ReportSettings.for_run()
+    folder = job_cache(tmp_path, base, 0).folder
+    assert job_cache(tmp_path, base, 0).folder == folder
+    assert job_cache(tmp_path, replace(base, workers=7), 0).folder == folder  # same numbers
+    for other, seed in (
+        (base, 1),
+        (ReportSettings.for_run(quick=True), 0),
+        (replace(base, n_starts=5), 0),
+        (replace(base, scheduler="tcp://h:8786"), 0),  # its workers' CPUs, not this one's
+    ):
+        assert job_cache(tmp_path, other, seed).folder != folder, (other, seed)
