@@ -49,7 +49,6 @@ import sys
 import tempfile
 import time
 from dataclasses import asdict, dataclass
-from importlib import metadata
 from pathlib import Path
 
 from fitdf import __version__
@@ -66,7 +65,7 @@ from fitdf.jobcache import JobCache, default_cache_folder, files_digest
 from fitdf.models import get_model, model_names
 from fitdf.report import render
 from fitdf.report import sections as rs
-from fitdf.report.machine import machine_record
+from fitdf.report.machine import machine_record, versions
 
 __all__ = [
     "generate_report",
@@ -563,16 +562,6 @@ def _swap_in(tmp: Path, out_dir: Path) -> None:
 _CACHE_LIBRARIES = ("pandas", "matplotlib", "arviz", "xarray", "corner", "control", "llvmlite")
 
 
-def _versions(names) -> dict:
-    found = {}
-    for name in names:
-        try:
-            found[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            found[name] = None
-    return found
-
-
 def job_cache(folder, settings: ReportSettings, seed: int) -> JobCache:
     """The job cache of a report with these ``settings`` and ``seed``, in ``folder`` (None: the
     user's cache folder, :func:`fitdf.jobcache.default_cache_folder`).
@@ -589,7 +578,7 @@ def job_cache(folder, settings: ReportSettings, seed: int) -> JobCache:
             # a cluster's workers compute on their own CPUs, not this machine's
             "scheduler": settings.scheduler,
             "machine": machine_record(),
-            "libraries": _versions(_CACHE_LIBRARIES),
+            "libraries": versions(_CACHE_LIBRARIES),
             "fitdf": __version__,
             "files": files_digest(Path(__file__).resolve().parents[1], Path(str(data_dir()))),
         },

@@ -33,21 +33,26 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+def versions(names) -> dict:
+    """The installed version of each distribution in ``names`` (None where it is missing)."""
+    found = {}
+    for name in names:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = None
+    return found
+
+
 def machine_record() -> dict:
     """The CPU, LLVM's name for it (numba's target; llvmlite comes with numba), the Python
     version and the numerical libraries' versions."""
-    versions = {}
-    for name in _STACK:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = None
     return {
         "cpu": _cpu_model(),
         "architecture": platform.machine(),
         "llvm_cpu": llvm.get_host_cpu_name(),  # what numba compiles for
         "python": sys.version.split()[0],
-        "libraries": versions,
+        "libraries": versions(_STACK),
     }
 
 
