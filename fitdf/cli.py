@@ -379,40 +379,40 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
     """The fits of ``fitdf fit`` once :func:`cmd_fit` has read and checked every dataset
     (``rows``): a handler of its own so that the fitting stack it imports (~5 s) is imported
     only for data that can be fitted."""
-    from tqdm.auto import tqdm
-
     from fitdf._json import clean
     from fitdf.executor import Executor
+    from fitdf.inference.cache import comparison_cache
     from fitdf.inference.ranking import compare_fits
 
     per_fit = len(models) * len(args.chain) * (2 if args.method == "both" else 1)
     records, summary = [], []
     show = not args.quiet and not args.json
-    parallel = args.workers > 1 or args.scheduler is not None
+    fit_kw = dict(n_steps=args.steps, max_steps=args.max_steps, geometry=geometry)
+    # kept on ``args``: after Ctrl-C, the one line says what the caches kept
+    args.job_caches = []
     with Executor(workers=args.workers, scheduler=args.scheduler, progress=show) as executor:
         for src, fd in zip(sources, rows):
-            progress = None
-            if show and not parallel:
-                desc = f"fitting {fd.label}" if batch else "fitting"
-                progress = tqdm(total=per_fit, desc=desc, file=sys.stderr, disable=None)
-            try:
-                comparison = compare_fits(
+            if not args.no_cache:
+                executor.cache = comparison_cache(
+                    args.cache,
                     fd,
-                    models=models,
-                    chains=tuple(args.chain),
-                    method=args.method,
                     seed=args.seed,
-                    rank_by=args.rank_by,
                     cross_validation=not args.no_cv,
-                    progress=progress,
-                    runner=executor.run if parallel else None,
-                    n_steps=args.steps,
-                    max_steps=args.max_steps,
-                    geometry=geometry,
+                    scheduler=args.scheduler,
+                    **fit_kw,
                 )
-            finally:
-                if progress is not None:
-                    progress.close()
+                args.job_caches.append(executor.cache)
+            comparison = compare_fits(
+                fd,
+                models=models,
+                chains=tuple(args.chain),
+                method=args.method,
+                seed=args.seed,
+                rank_by=args.rank_by,
+                cross_validation=not args.no_cv,
+                runner=executor.run,
+                **fit_kw,
+            )
             record = {
                 "data": str(src),
                 "seed": args.seed,
@@ -424,6 +424,14 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
             summary.append(clean(_summary_row(src, comparison)))
             if not args.json:
                 _print_fit(comparison, args, brief=batch)
+    if executor.reused and not args.quiet:
+        where = args.job_caches[0].root
+        print(
+            f"fitdf fit: {len(executor.reused)} of {per_fit * len(sources)} fits read from "
+            f"{where}, kept by an earlier run of the same rows, options, code and machine "
+            "(--no-cache computes them again)",
+            file=sys.stderr,
+        )
     if args.json:
         if batch:
             out = {"seed": args.seed, "rank_by": args.rank_by, "summary": summary}
@@ -747,6 +755,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="ADDRESS",
         help="run the fits on this Dask cluster (default: FITDF_SCHEDULER, else local)",
     )
+    _add_cache_options(sp, "the rows' contents, options, seed")
 
     sp = add(
         "report",
@@ -766,18 +775,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="run the fits on this Dask cluster, e.g. tcp://host:8786 (default: the "
         "FITDF_SCHEDULER environment variable, else local processes; needs fitdf[dask])",
     )
-    kept = sp.add_mutually_exclusive_group()
-    kept.add_argument(
-        "--cache",
-        default=os.environ.get("FITDF_CACHE_DIR") or None,
-        metavar="DIR",
-        help="keep finished fits here, so that a stopped or repeated run goes on from them "
-        "(default: FITDF_CACHE_DIR, else ~/.cache/fitdf/jobs; the key covers the settings, "
-        "seed, code, data and machine)",
-    )
-    kept.add_argument(
-        "--no-cache", action="store_true", help="compute every fit, keep none (for timings)"
-    )
+    _add_cache_options(sp, "the settings, seed")
 
     sp = add(
         "limit-cycle",
@@ -831,6 +829,23 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _add_cache_options(sp, key: str) -> None:
+    """``--cache DIR`` and ``--no-cache`` (:mod:`fitdf.jobcache`); ``key``: what the key covers
+    besides code, data and machine."""
+    kept = sp.add_mutually_exclusive_group()
+    kept.add_argument(
+        "--cache",
+        default=os.environ.get("FITDF_CACHE_DIR") or None,
+        metavar="DIR",
+        help="keep finished fits here, so that a stopped or repeated run goes on from them "
+        f"(default: FITDF_CACHE_DIR, else ~/.cache/fitdf/jobs; the key covers {key}, "
+        "code, data and machine)",
+    )
+    kept.add_argument(
+        "--no-cache", action="store_true", help="compute every fit, keep none (for timings)"
+    )
+
+
 def _validate(args):
     """Checks before anything is imported or computed (each value alone passed its ``type=``).
 
@@ -838,8 +853,8 @@ def _validate(args):
     """
     if args.command == "report":
         check_output_folder("--out", args.out, replaced=True)
-        if args.cache is not None and not args.no_cache:
-            check_output_folder("--cache", args.cache)
+    if getattr(args, "cache", None) is not None and not args.no_cache:
+        check_output_folder("--cache", args.cache)
     if getattr(args, "plot", None) is not None:
         check_output_file("--plot", args.plot)
     if getattr(args, "max_steps", None) is not None and args.max_steps < args.steps:
@@ -919,21 +934,21 @@ def stop_signals():
 def _stopped_message(args, exc: BaseException) -> str:
     """The one line after Ctrl-C or SIGTERM: what was kept."""
     what = "terminated" if isinstance(exc, Terminated) else "interrupted"
+    caches = getattr(args, "job_caches", None) or [getattr(args, "job_cache", None)]
+    kept = sum(c.hits + c.written for c in caches if c is not None)
+    resume = (
+        f"; {kept} finished {'job' if args.command == 'report' else 'fit'}"
+        f"{'s' if kept != 1 else ''} kept in {caches[0].root}, the same command goes on from them"
+        if kept
+        else ""
+    )
     if args.command == "report":
         out = str(args.out).rstrip("/") or str(args.out)
-        cache = getattr(args, "job_cache", None)
-        kept = cache.hits + cache.written if cache is not None else 0
-        resume = (
-            f"; {kept} finished job{'s' if kept != 1 else ''} kept in {cache.root}, "
-            "the same command goes on from them"
-            if kept
-            else ""
-        )
         if Path(args.out).is_dir():  # the report is written atomically: still the old one
             return f"fitdf: {what}; {out}/ left as it was{resume}"
         return f"fitdf: {what}; no report written to {out}/{resume}"
     if args.command == "fit":
-        return f"fitdf: {what}; no results printed"
+        return f"fitdf: {what}; no results printed{resume}"
     return f"fitdf: {what}"
 
 

@@ -6,7 +6,7 @@ is kept under the SHA-256 of its function's name, its key and a *salt*: the salt
 everything the run's arguments are made from, so that within one salt a key names one job
 with one set of arguments. For a report that is its settings and seed, fitdf's code, the
 bundled data and the machine (the same seed gives the same numbers only on the same CPU with
-the same libraries, :mod:`fitdf.report.machine`): :func:`fitdf.report.build.job_cache`. A kept
+the same libraries, :mod:`fitdf.machine`): :func:`fitdf.report.build.job_cache`. A kept
 result is therefore the one the job would compute again, to the bit. (The arguments
 themselves are not hashed: a pickle is not canonical, the same fit pickles to other bytes
 once it has been through a pickle, as pandas and string interning rearrange it.)
@@ -26,6 +26,7 @@ Layout: ``<folder>/<salt[:20]>/<digest[:2]>/<digest>.pkl``. Salt folders not wri
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import pickle
 import shutil
@@ -33,7 +34,9 @@ import tempfile
 import time
 from pathlib import Path
 
-__all__ = ["JobCache", "default_cache_folder", "files_digest"]
+from fitdf.machine import machine_record, versions
+
+__all__ = ["JobCache", "default_cache_folder", "files_digest", "run_salt"]
 
 #: Salt folders untouched for this many days are removed by :meth:`JobCache.__init__`.
 STALE_DAYS = 7
@@ -60,6 +63,23 @@ def files_digest(*folders, suffixes=(".py", ".csv", ".json")) -> str:
             h.update(p.read_bytes())
             h.update(b"\0")
     return h.hexdigest()
+
+
+def run_salt(parts: dict, folders, libraries=()) -> str:
+    """The salt of a run's cache: ``parts`` (what its jobs' arguments are made from: settings,
+    seed, the rows fitted) with what every number depends on besides: the machine record
+    (:mod:`fitdf.machine`), the versions of ``libraries``, fitdf's version and a digest of
+    ``folders`` (fitdf's source, the bundled data). A canonical JSON text."""
+    return json.dumps(
+        {
+            **parts,
+            "machine": machine_record(),
+            "libraries": versions(libraries),
+            "fitdf": versions(("fitdf",))["fitdf"],  # (None in an uninstalled tree)
+            "files": files_digest(*folders),
+        },
+        sort_keys=True,
+    )
 
 
 class JobCache:

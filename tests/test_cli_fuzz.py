@@ -197,6 +197,8 @@ FIT = {
     "--rank-by": choice_or_junk(["aicc", "looic"]),
     "--policy": choice_or_junk(["all", "strict"]),
     "--no-cv": None,
+    "--cache": junk,
+    "--no-cache": None,
 }
 LIMIT_CYCLE = {
     **COMMON,

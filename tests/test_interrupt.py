@@ -155,7 +155,7 @@ def test_a_signal_stops_the_report_and_keeps_the_previous_one(
         pytest.param(signal.SIGTERM, 143, "terminated", marks=pytest.mark.slow),
     ],
 )
-def test_a_signal_stops_a_fit(sig, code, word):
+def test_a_signal_stops_a_fit(sig, code, word, tmp_path):
     proc = subprocess.Popen(
         [
             sys.executable,
@@ -167,6 +167,8 @@ def test_a_signal_stops_a_fit(sig, code, word):
             "--method",
             "both",
             "--quiet",
+            "--cache",
+            str(tmp_path / "kept"),
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -180,7 +182,11 @@ def test_a_signal_stops_a_fit(sig, code, word):
     returncode, seconds, err = _stop(proc, sig)
     assert returncode == code, err
     assert seconds < 10
-    assert err == [f"fitdf: {word}; no results printed"]
+    # the fits that finished before the stop (none, or a few cheap ones) are kept, and said so
+    kept = len(list((tmp_path / "kept").rglob("*.pkl")))
+    said = f"; {kept} finished fit{'s' if kept != 1 else ''} kept in {tmp_path / 'kept'}, "
+    said += "the same command goes on from them"
+    assert err == [f"fitdf: {word}; no results printed{said if kept else ''}"]
 
 
 def test_only_stale_temporary_folders_are_removed(tmp_path, monkeypatch):

@@ -3,13 +3,17 @@ and a report taken from its kept jobs is the report computed afresh."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import operator
 import os
 import pickle
+import shutil
 import time
 from pathlib import Path
 
 import pytest
+from synthetic import synthetic_frame
 
 from fitdf import cli
 from fitdf.executor import Executor
@@ -132,24 +136,85 @@ def test_the_stop_message_says_what_was_kept(tmp_path):
     )
 
 
-def test_cache_options(tmp_path, monkeypatch, capsys):
+def test_a_stopped_fit_says_what_was_kept(tmp_path):
+    args = cli.build_parser().parse_args(["fit", "B.3"])
+    assert cli._stopped_message(args, KeyboardInterrupt()) == (
+        "fitdf: interrupted; no results printed"
+    )
+    args.job_caches = [JobCache(tmp_path / "c", "rows 1"), JobCache(tmp_path / "c", "rows 2")]
+    args.job_caches[0].written, args.job_caches[1].hits = 3, 1  # a batch: two files' caches
+    assert cli._stopped_message(args, KeyboardInterrupt()) == (
+        f"fitdf: interrupted; no results printed; 4 finished fits kept in {tmp_path / 'c'}, "
+        "the same command goes on from them"
+    )
+
+
+@pytest.mark.parametrize("command", [["report", "--out", "OUT"], ["fit", "B.3"]])
+def test_cache_options(tmp_path, monkeypatch, capsys, command):
     monkeypatch.setenv("FITDF_CACHE_DIR", str(tmp_path / "env"))
     parse = cli.build_parser().parse_args
-    assert parse(["report"]).cache == str(tmp_path / "env")
-    assert parse(["report", "--cache", "x"]).cache == "x"
-    assert parse(["report", "--no-cache"]).no_cache
+    assert parse(command).cache == str(tmp_path / "env")
+    assert parse([*command, "--cache", "x"]).cache == "x"
+    assert parse([*command, "--no-cache"]).no_cache
     a_file = tmp_path / "a_file"
     a_file.write_text("")
+    out = tmp_path / "out"
+    command = [str(out) if word == "OUT" else word for word in command]
     for argv, words in (
         (["--cache", str(a_file)], "--cache"),
         (["--cache", ""], "--cache: empty path"),
         (["--cache", "x", "--no-cache"], "not allowed with"),
     ):
-        out = tmp_path / "out"
-        code = cli.main(["report", "--out", str(out), "--quiet", *argv])
-        err = capsys.readouterr().err
-        assert code == 2 and not out.exists(), argv
-        assert words in err and len(err.strip().splitlines()) == 1, err
+        code = cli.main([*command, "--quiet", *argv])
+        captured = capsys.readouterr()
+        assert code == 2 and not out.exists() and not captured.out, argv
+        assert words in captured.err and len(captured.err.strip().splitlines()) == 1, captured
+
+
+def _fit(csv, cache, *more):
+    """``fitdf fit`` of one cheap law on ``csv`` in this process: ``(exit code, JSON, stderr)``."""
+    argv = ["fit", str(csv), "--models", "constant_width", "--chain", "winding", "--no-cv"]
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = cli.main([*argv, "--workers", "1", "--json", "--cache", str(cache), *more])
+    return code, out.getvalue(), err.getvalue()
+
+
+def test_a_fit_asked_again_is_read_not_computed_unless_its_rows_changed(tmp_path, monkeypatch):
+    import fitdf.inference.ranking as ranking
+
+    csv = tmp_path / "core.csv"
+    frame = synthetic_frame(
+        "constant_width",
+        {"k": 60.0, "b": 2e-4, "c": 0.04, "r_winding": 100.0, "gain": 0.95},
+        chain="winding",
+        frequencies=(3.0, 10.0),
+        amplitudes=[0.2, 0.5, 1.0, 2.0, 3.0, 4.0],
+    )
+    frame.to_csv(csv, index=False)
+    cache = tmp_path / "kept"
+    code, first, err = _fit(csv, cache)
+    assert code == 0 and "read from" not in err, err
+    fitted = []  # the fits that really run from here on
+    real_fit = ranking.fit
+    monkeypatch.setattr(ranking, "fit", lambda *a, **k: fitted.append(a[1]) or real_fit(*a, **k))
+    code, again, err = _fit(csv, cache)
+    assert code == 0 and again == first and fitted == []  # the same JSON, to the last digit
+    assert f"1 of 1 fits read from {cache}" in err
+    # one cell of the user's file changed: its own entry, computed
+    frame.loc[3, "df_reported"] += 1e-3
+    frame.to_csv(csv, index=False)
+    code, changed, err = _fit(csv, cache)
+    assert code == 0 and changed != first and fitted == ["constant_width"]
+    assert "read from" not in err and len(list(cache.iterdir())) == 2
+    # another seed is another entry; --no-cache neither reads nor writes
+    assert _fit(csv, cache, "--seed", "3")[0] == 0 and len(fitted) == 2
+    shutil.rmtree(cache)
+    monkeypatch.setenv("FITDF_CACHE_DIR", str(cache))
+    with contextlib.redirect_stdout(io.StringIO()) as out:
+        argv = ["fit", str(csv), "--models", "constant_width", "--chain", "winding", "--no-cv"]
+        assert cli.main([*argv, "--workers", "1", "--json", "--no-cache"]) == 0
+    assert out.getvalue() == changed and len(fitted) == 3 and not cache.exists()
 
 
 def test_a_reports_cache_is_its_settings_seed_and_clusters_own(tmp_path):

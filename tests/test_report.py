@@ -16,9 +16,9 @@ from tiny_settings import TINY
 import fitdf.report.outline as outline
 import fitdf.report.render as render
 import fitdf.report.sections as sections
+from fitdf.machine import machine_record, same_machine
 from fitdf.plots.summary import CAPTION, constant_rows, plot_summary, residual_grid
 from fitdf.report.build import BLOCKS, ReportSettings, generate_report
-from fitdf.report.machine import machine_record, same_machine
 
 TESTS = Path(__file__).resolve().parent
 REPO = TESTS.parent

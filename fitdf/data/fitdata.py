@@ -6,6 +6,7 @@ positive angle, the same sign convention as the models' ``N`` (a lag is negative
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -92,6 +93,21 @@ class FitData:
             label=label,
             core=_single_core(frame),
         )
+
+    def digest(self) -> str:
+        """SHA-256 of everything a fit reads from these rows: the arrays, the table of each
+        row, the label, the core and the whole frame (its columns, types and values). The
+        same rows give the same digest in any process (a key of :mod:`fitdf.jobcache`)."""
+        h = hashlib.sha256()
+        for a in (self.amplitude, self.frequency, self.source_impedance, self.measured):
+            h.update(np.ascontiguousarray(a).tobytes())
+        frame = self.rows
+        header = [self.label, str(self.core), *self.group.tolist(), *map(str, frame.columns)]
+        header += [str(t) for t in frame.dtypes]
+        h.update("\0".join(header).encode())
+        # pandas' row hash has a fixed key: the same values hash alike in every process
+        h.update(pd.util.hash_pandas_object(frame, index=True).to_numpy().tobytes())
+        return h.hexdigest()
 
     def subset(self, mask) -> FitData:
         mask = np.asarray(mask, bool)

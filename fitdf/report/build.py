@@ -61,11 +61,11 @@ from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
-from fitdf.jobcache import JobCache, default_cache_folder, files_digest
+from fitdf.jobcache import JobCache, default_cache_folder, run_salt
+from fitdf.machine import machine_record
 from fitdf.models import get_model, model_names
 from fitdf.report import render
 from fitdf.report import sections as rs
-from fitdf.report.machine import machine_record, versions
 
 __all__ = [
     "generate_report",
@@ -571,18 +571,15 @@ def job_cache(folder, settings: ReportSettings, seed: int) -> JobCache:
     record, the versions of the libraries the results and figures depend on, and a digest of
     fitdf's source and of the bundled data. Another setting, seed, cluster, CPU, library
     version, code or data file keeps its entries apart."""
-    salt = json.dumps(
+    salt = run_salt(
         {
             "settings": _settings_record(settings),
             "seed": int(seed),
             # a cluster's workers compute on their own CPUs, not this machine's
             "scheduler": settings.scheduler,
-            "machine": machine_record(),
-            "libraries": versions(_CACHE_LIBRARIES),
-            "fitdf": __version__,
-            "files": files_digest(Path(__file__).resolve().parents[1], Path(str(data_dir()))),
         },
-        sort_keys=True,
+        (Path(__file__).resolve().parents[1], Path(str(data_dir()))),
+        _CACHE_LIBRARIES,
     )
     return JobCache(default_cache_folder() if folder is None else folder, salt)
 
@@ -605,7 +602,7 @@ def generate_report(
         Report folder (replaced as a whole; its parent is created if missing).
     seed : int
         Seed of every fit; the same seed gives the same numbers on the same CPU and libraries
-        (``results['timing']['machine']``, :mod:`fitdf.report.machine`).
+        (``results['timing']['machine']``, :mod:`fitdf.machine`).
     quick : bool
         Least squares only, with the same models, starts and seed as the full run (so
         the same rankings), no cross-validation, one model per cross-impedance

@@ -37,7 +37,7 @@ def _more_starts(models, n_starts) -> str:
 
 
 def _machine_text(machine) -> str:
-    """Where the numbers were computed (``fitdf.report.machine``)."""
+    """Where the numbers were computed (``fitdf.machine``)."""
     if not machine:
         return "computed on a machine this report did not record"
     libs = ", ".join(f"{k} {v}" for k, v in machine["libraries"].items() if v)
