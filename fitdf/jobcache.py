@@ -6,7 +6,9 @@ is kept under the SHA-256 of its function's name, its key and a *salt*: the salt
 everything the run's arguments are made from, so that within one salt a key names one job
 with one set of arguments. For a report that is its settings and seed, fitdf's code, the
 bundled data and the machine (the same seed gives the same numbers only on the same CPU with
-the same libraries, :mod:`fitdf.machine`): :func:`fitdf.report.build.job_cache`. A kept
+the same libraries, :mod:`fitdf.machine`): :func:`fitdf.report.build.job_cache`; for
+``fitdf fit``, the rows' contents and the fit's options instead of the report's settings:
+:func:`fitdf.inference.cache.comparison_cache` (both through :func:`run_salt`). A kept
 result is therefore the one the job would compute again, to the bit. (The arguments
 themselves are not hashed: a pickle is not canonical, the same fit pickles to other bytes
 once it has been through a pickle, as pandas and string interning rearrange it.)
