@@ -530,15 +530,16 @@ def cmd_report(args):
     from fitdf.report.build import ReportSettings, generate_report, job_cache
 
     settings = ReportSettings.for_run(args.quick, scheduler=args.scheduler)
+    cache = None if args.no_cache else job_cache(args.cache, settings, args.seed)
     # kept on ``args``: after Ctrl-C, the one line says what the cache kept
-    args.job_cache = None if args.no_cache else job_cache(args.cache, settings, args.seed)
+    args.job_caches = [] if cache is None else [cache]
     out = generate_report(
         out_dir=args.out,
         seed=args.seed,
         quick=args.quick,
         progress=not args.quiet,
         settings=settings,
-        cache=args.job_cache,
+        cache=cache,
     )
     print(f"report written to {out}/ (README.md, index.html, results.json, figures/)")
     return 0
@@ -934,8 +935,8 @@ def stop_signals():
 def _stopped_message(args, exc: BaseException) -> str:
     """The one line after Ctrl-C or SIGTERM: what was kept."""
     what = "terminated" if isinstance(exc, Terminated) else "interrupted"
-    caches = getattr(args, "job_caches", None) or [getattr(args, "job_cache", None)]
-    kept = sum(c.hits + c.written for c in caches if c is not None)
+    caches = getattr(args, "job_caches", [])  # (set once a command's caches are open)
+    kept = sum(c.hits + c.written for c in caches)
     resume = (
         f"; {kept} finished {'job' if args.command == 'report' else 'fit'}"
         f"{'s' if kept != 1 else ''} kept in {caches[0].root}, the same command goes on from them"

@@ -128,8 +128,8 @@ def test_the_stop_message_says_what_was_kept(tmp_path):
     assert cli._stopped_message(args, KeyboardInterrupt()) == (
         f"fitdf: interrupted; no report written to {tmp_path / 'r'}/"
     )
-    args.job_cache = JobCache(tmp_path / "c", "s")
-    args.job_cache.written, args.job_cache.hits = 3, 2
+    args.job_caches = [JobCache(tmp_path / "c", "s")]
+    args.job_caches[0].written, args.job_caches[0].hits = 3, 2
     assert cli._stopped_message(args, cli.Terminated()) == (
         f"fitdf: terminated; no report written to {tmp_path / 'r'}/; 5 finished jobs kept in "
         f"{tmp_path / 'c'}, the same command goes on from them"
@@ -172,11 +172,14 @@ def test_cache_options(tmp_path, monkeypatch, capsys, command):
 
 
 def _fit(csv, cache, *more):
-    """``fitdf fit`` of one cheap law on ``csv`` in this process: ``(exit code, JSON, stderr)``."""
+    """``fitdf fit`` of one cheap law on ``csv`` in this process, its fits kept in ``cache``
+    (None: ``--no-cache``): ``(exit code, JSON, stderr)``."""
     argv = ["fit", str(csv), "--models", "constant_width", "--chain", "winding", "--no-cv"]
+    argv += ["--workers", "1", "--json"]
+    argv += ["--no-cache"] if cache is None else ["--cache", str(cache)]
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = cli.main([*argv, "--workers", "1", "--json", "--cache", str(cache), *more])
+        code = cli.main([*argv, *more])
     return code, out.getvalue(), err.getvalue()
 
 
@@ -211,10 +214,8 @@ def test_a_fit_asked_again_is_read_not_computed_unless_its_rows_changed(tmp_path
     assert _fit(csv, cache, "--seed", "3")[0] == 0 and len(fitted) == 2
     shutil.rmtree(cache)
     monkeypatch.setenv("FITDF_CACHE_DIR", str(cache))
-    with contextlib.redirect_stdout(io.StringIO()) as out:
-        argv = ["fit", str(csv), "--models", "constant_width", "--chain", "winding", "--no-cv"]
-        assert cli.main([*argv, "--workers", "1", "--json", "--no-cache"]) == 0
-    assert out.getvalue() == changed and len(fitted) == 3 and not cache.exists()
+    code, uncached, _ = _fit(csv, None)
+    assert code == 0 and uncached == changed and len(fitted) == 3 and not cache.exists()
 
 
 def test_a_reports_cache_is_its_settings_seed_and_clusters_own(tmp_path):
