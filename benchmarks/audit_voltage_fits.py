@@ -16,10 +16,6 @@ the peak current, each linear piece in closed form). Printed per law, block and 
 largest ``|DF - DF_ref|`` and its row, the rows beyond 5e-4, and the rows where the
 reference does not apply (a branch it cannot split into linear pieces: cubic_hc's cubic
 width). No thresholds: numbers only.
-
-It found the fault fixed in the fourteenth pass of issue #12 (benchmarks/README.md): up to
-6e-3 at these sets on B.2 and B.5 (0.29 at the MCMC's best draw of B.2 constant_width),
-1.4e-4 at most after.
 """
 
 from __future__ import annotations

@@ -5,12 +5,13 @@ Run:  python benchmarks/bench_chain.py B.5:cubic_hc [B.1:preisach ...] [--seed 0
 
 For each ``block:law`` (a report block, ``permalloy-joint`` and ``deltamax-joint`` included)
 it fits the law by least squares as the report does, then runs the report's MCMC job on it
-(the same ``n_steps``, step limits of the law, ``ReportSettings.step_limits``, and checks),
-and prints the chain's length, steps over its largest autocorrelation time, largest R-hat,
-smallest bulk ESS, mean acceptance, whether it meets the convergence rule, and the seconds
-of each stage. Same seed, same numbers as the report's chain (the jobs are deterministic):
-this is how a change to a law's coordinates or to the sampler is measured chain by chain
-before a full report (benchmarks/README.md, twelfth pass). No thresholds: numbers only.
+(the same ``n_steps``, step limits of the law, ``ReportSettings.step_limits``, and checks;
+``--steps`` replaces the step limits), and prints one row: the least-squares chi-square and
+seconds, the chain's length, steps over its largest autocorrelation time, largest R-hat,
+smallest bulk ESS, mean acceptance, whether it meets the convergence rule, and the MCMC's
+seconds. The jobs are deterministic: with the same seed, CPU and libraries this is the
+report's chain step for step, so a change to a law's coordinates or to the sampler can be
+measured chain by chain without a full report. No thresholds: numbers only.
 """
 
 from __future__ import annotations

@@ -4,11 +4,13 @@ Run:  python benchmarks/bench_fit.py [--quick]
 
 Prints, side by side in one run:
 1. least squares of every model (winding chain) on every core (0 and 600 ohm jointly):
-   seconds per fit, residual evaluations, evaluations per second;
-2. MCMC effective samples per second for the same model and data, through fitdf's
-   sampler (emcee, log-probability vectorised over walkers) and through lmfit's own
-   ``Minimizer.emcee`` (walker-by-walker through lmfit Parameters), same walkers and
-   steps, ESS from the integrated autocorrelation time of each chain. Aim: >= 10x.
+   seconds per fit, parameter sets evaluated, sets per second, RMS complex residual;
+2. MCMC on Permalloy (600 ohm), proportional_width, through fitdf's sampler (emcee,
+   log-probability vectorised over walkers; pilot, then independent production chains)
+   and through lmfit's own ``Minimizer.emcee`` (walker by walker through lmfit
+   Parameters), same walkers and steps: seconds, largest autocorrelation time, ESS from
+   the integrated autocorrelation time, ESS per second, and the ratio of the two (aim
+   >= 10x). ``--quick``: Permalloy and two models only, 300 steps.
 No thresholds are asserted: the numbers are printed.
 """
 

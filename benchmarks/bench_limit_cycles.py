@@ -9,20 +9,22 @@ A least-squares fit of proportional_width to Table B.1 (exact ``voltage`` chain,
 in the thesis plant ``K/((1+s)(1+0.25s)(1+1.1s))`` at time scale 2.5, twelve gains 20-300
 (as the report's limit-cycle section solves Tables 5.1/5.2). Two ways, in one process:
 
-* **scipy per candidate** (the peer; what fitdf did before): every candidate cell of every
-  gain refined by its own :func:`scipy.optimize.least_squares` (``trf``, ``diff_step`` 1e-4,
-  tolerances 1e-15), one single-point evaluation of the core's DF per residual, and the
-  critical gain's peak by :func:`scipy.optimize.minimize_scalar` over ``ln A`` with a
-  :func:`scipy.optimize.brentq` in ``ln omega`` at each amplitude;
+* **scipy per candidate** (the peer): every candidate cell of every gain refined by its own
+  :func:`scipy.optimize.least_squares` (``trf``, ``diff_step`` the refinement's
+  ``harmonic.REFINE_DIFF_STEP``, tolerances 1e-15), one single-point evaluation of the
+  core's DF per residual, and the critical gain's peak by
+  :func:`scipy.optimize.minimize_scalar` over ``ln A`` with a :func:`scipy.optimize.brentq`
+  in ``ln omega`` at each amplitude;
 * **fitdf**: :func:`fitdf.loop.harmonic.limit_cycles` -- all candidates refined at once
   (Levenberg-Marquardt, two batched evaluations of the DF per iteration) and the peak by
   rounds of 17 amplitudes whose crossings :func:`scipy.optimize.elementwise.find_root`
   finds together.
 
 Both start from the same grid (160 x 320 points, one batched evaluation, timed apart). The
-table gives each way's time (median of the repeats, after one untimed call) for the refinement of the cycles, for the critical gain, their
-ratio, and how far the two ways' cycles and critical gains are apart. Nothing is asserted
-(the agreement is tested: tests/test_limitcycle.py); the load average is printed.
+table gives each way's time (median of the repeats, after one untimed call) for the
+refinement of the cycles and for the critical gain, their ratio, and how far the two ways'
+cycles and critical gains are apart. Nothing is asserted (the agreement is tested:
+tests/test_limitcycle.py); the load average is printed.
 """
 
 from __future__ import annotations

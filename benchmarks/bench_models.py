@@ -22,7 +22,7 @@ dataset, for one parameter set and for a batch of 64 walkers, for every model.
 Timings are medians of repeats (``time.perf_counter``); aims are printed, never asserted.
 BLAS is pinned to one thread unless ``OPENBLAS_NUM_THREADS`` is already set: the
 engine's matrix-vector products are too small to gain from threads, and on a busy
-machine idle-spinning BLAS threads made it up to 15x slower (python-control is
+machine idle-spinning BLAS threads make it up to 15x slower (python-control is
 single-threaded anyway).
 """
 

@@ -17,8 +17,9 @@ eight chains does, and splits the time of a call into:
   the batch is small: eight chains, and the last iterations of a search, where a few
   points are still short of the tolerance).
 
-Timers wrap the functions in this process only (the library is not changed). Numbers
-only, no thresholds (benchmarks/README.md, sixteenth pass).
+Prints one row per ``block:law``: the rows of the block, the milliseconds of one call and of
+each part, with its share. Timers wrap the functions in this process only (the library is
+not changed). Numbers only, no thresholds.
 """
 
 from __future__ import annotations

@@ -9,9 +9,9 @@ One polish (:func:`fitdf.inference.lsq._polish`, lmfit's trust region, ``max_nfe
 from the same start (40 % into each parameter's box), through the exact ``voltage`` chain,
 two ways in one process:
 
-* **solved** (the peer; what fitdf did before): every column of the forward-difference
-  Jacobian is a solve of the chain at a shifted vector, the points scipy's
-  ``least_squares(diff_step=1e-4)`` evaluates (one batched call);
+* **solved** (the peer): every column of the forward-difference Jacobian is a solve of the
+  chain at a shifted vector, the points scipy's ``least_squares(diff_step=1e-4)`` evaluates
+  (one batched call);
 * **rescaled** (fitdf): the columns of the calibration gains, which only multiply the
   prediction, are the prediction at ``x`` rescaled (:meth:`FitProblem.rescaled`).
 

@@ -10,7 +10,7 @@ loop two ways: :func:`fitdf.models._preisach_everett._preisach_branch_reference`
 Everett function as four bivariate normals by Owen's ``T``: the tests' reference) and
 :func:`fitdf.models._preisach_everett.preisach_branch` (the compiled loop, two bivariate
 normals per point by Genz's algorithm), on a table of the ``voltage`` chain's shape (36
-amplitudes x 127 nodes) at the report's least-squares fits of Tables B.3 and B.5
+amplitudes x 127 nodes) at the least-squares fits of Tables B.3 and B.5 in ``REPORT_FITS``
 (``r = s/S`` 0.72 and 0.43); then one ``FitProblem.predict`` of the ``voltage`` chain on those
 tables, for one parameter set and for 22 (the pilot's walkers, parameters scattered by
 0.1 %), with the branch switched between the two. Medians of repeats, interleaved; the

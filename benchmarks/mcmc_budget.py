@@ -18,8 +18,8 @@ is a lower bound.
 Then the report as a whole: the job-seconds outside MCMC, the MCMC floor, the wall time
 they need on ``--cores`` at best (job-seconds over cores; the figures, which run after
 the jobs, added), and the longest single job at its floor (no number of cores makes the
-report shorter than that). Against the 10-minute aim of issue #12. And the same for
-fewer sampled laws, the re-scoping the aim would need: MCMC for the best one or two
+report shorter than that), and how many times the work would have to shrink to fit a
+10-minute aim (600 s). And the same for fewer sampled laws: MCMC for the best one or two
 sampled laws of each block only (by the least-squares order), at their cost as run and
 at their floor.
 

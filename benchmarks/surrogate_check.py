@@ -17,8 +17,9 @@ rounds first) trains two surrogates of the error components per row (magnitude a
 what the likelihood reads): a polynomial of degree 1-3 in the whitened logit
 coordinates, and a local-linear fit on the ``k`` nearest training sets. Each is scored on
 the later evaluations within 15 log units of the best: the mean and standard deviation of
-``log p(exact) - log p(surrogate)`` and its 95th percentile about the mean. No thresholds:
-numbers only (benchmarks/README.md, fifteenth pass).
+``log p(exact) - log p(surrogate)`` and its 95th percentile about the mean, and the median
+distance from a scored set to its nearest training set in posterior standard deviations.
+No thresholds: numbers only.
 """
 
 from __future__ import annotations
