@@ -116,3 +116,17 @@ def test_public_api_works_whatever_was_imported_first():
 @pytest.mark.parametrize("name", fitdf.__all__)
 def test_every_public_name_resolves(name):
     assert getattr(fitdf, name) is not None
+
+
+def test_public_modules_import_by_their_dotted_names():
+    """``import fitdf.datasets`` (as the README writes it) and ``import fitdf.audit`` work in a
+    fresh interpreter, and are the modules ``fitdf.datasets`` and ``fitdf.audit`` give."""
+    code = (
+        "import fitdf.datasets, fitdf.audit, fitdf, sys; "
+        "assert fitdf.datasets is sys.modules['fitdf.datasets']; "
+        "assert fitdf.audit.audit is sys.modules['fitdf.data.audit'].audit; "
+        "print(len(fitdf.datasets.load('B.1')))"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert int(run.stdout) == len(fitdf.datasets.load("B.1")) > 0

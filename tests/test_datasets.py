@@ -13,7 +13,12 @@ from fitdf.data import datasets
 from fitdf.errors import DataError
 
 REPO = Path(__file__).resolve().parent.parent
-THESIS = Path("/work/shared/thesis.txt")
+#: Appendix B of the thesis text (lines 1676-2034 of thesis.txt, verbatim), which the rows of
+#: appendix_b.csv cite by line number.
+THESIS_APPENDIX_B = REPO / "tests" / "data" / "thesis_appendix_b.txt"
+FIRST_LINE = 1676
+#: The whole thesis text, where a checkout sits beside it (the project's work tree).
+THESIS = REPO.parent / "shared" / "thesis.txt"
 
 # Rows per (table, frequency) block, counted in Appendix B of the thesis (continuation
 # pages included: the B.2, B.4 and B.5 continuations carry on their f = 10 c/s blocks).
@@ -168,21 +173,28 @@ def test_source_lines_increase(b):
     assert lines.iloc[0] == 1676 and lines.iloc[-1] == 2034
 
 
-@pytest.mark.skipif(not THESIS.exists(), reason="thesis text not available")
 def test_every_row_matches_its_source_line():
-    text = THESIS.read_text(encoding="utf-8").split("\n")
+    text = THESIS_APPENDIX_B.read_text(encoding="utf-8").split("\n")
     raw = pd.read_csv(
         datasets.data_dir().joinpath("appendix_b.csv"), dtype=str, keep_default_na=False
     )
     half = {"$\\frac{1}{2}$": "0.5", "1½": "1.5", "--": ""}
     for _, r in raw.iterrows():
-        line = text[int(r["source"].split()[-1]) - 1]
+        line = text[int(r["source"].split()[-1]) - FIRST_LINE]
         cells = [c for c in line.split() if c.lower() not in ("volts", "deg.")]
         assert cells[0].endswith("**") == (r["saturation"] == "true")
         printed = [cells[0].rstrip("*"), cells[1], half.get(cells[2], cells[2]), cells[3]]
         assert printed == [r["input_v"], r["h1_output_v"], r["phase_lead_deg"], r["df_reported"]], (
             line
         )
+
+
+@pytest.mark.skipif(not THESIS.exists(), reason="the whole thesis text is not beside this checkout")
+def test_appendix_b_excerpt_is_the_thesis_text():
+    lines = THESIS.read_text(encoding="utf-8").split("\n")
+    excerpt = THESIS_APPENDIX_B.read_text(encoding="utf-8").split("\n")[:-1]
+    assert excerpt == lines[FIRST_LINE - 1 : FIRST_LINE - 1 + len(excerpt)]
+    assert len(excerpt) == 2034 - FIRST_LINE + 1
 
 
 def test_limit_cycle_tables():

@@ -207,6 +207,14 @@ def test_fit_mcmc_feeds_the_diagnostics_the_sampler_chain(monkeypatch, marginal)
     tau = emcee.autocorr.integrated_time(seen["autocorr_time"], tol=0)
     assert list(d["tau"].values()) == list(map(float, tau))
     assert d["steps_over_tau"] == n_steps / np.max(tau)
+    # the burn-in: the first three autocorrelation times (at most half the chain) are left out
+    # of the diagnostics and of the posterior draws, which are the rest thinned by tau_min / 2
+    assert d["burn"] == min(math.ceil(3 * np.max(tau)), n_steps // 2) and d["burn"] >= 3
+    assert d["thin"] == max(1, math.floor(np.min(tau) / 2))
+    P = len(problem.names)
+    np.testing.assert_array_equal(
+        r.samples, seen["autocorr_time"][d["burn"] :: d["thin"], :, :P], strict=True
+    )
     for i, name in enumerate(names):
         rhat, ess = arviz_reference(seen["chain_diagnostics"][..., i : i + 1])
         assert d["rhat"][name] == rhat and d["ess_bulk"][name] == ess
