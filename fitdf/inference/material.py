@@ -1,50 +1,39 @@
-"""Material constants of a fitted core, read off the fitted loop, and their check against Appendix A.
+"""Material constants of a fitted core, read off the fitted loop, and their Appendix A check.
 
 A fitted law lives in winding units (current in A, flux linkage in V s). Given the core's
-:class:`~fitdf.data.cores.CoreGeometry` the loop converts to the material units in which
-manufacturers, and Appendix A of the thesis, characterise a core: permeabilities in
-gauss/oersted, inductions in gauss, the coercive force in oersted. This module computes
-those constants from the loop itself -- :meth:`ascending_branch` and
-:meth:`describing_function` of whatever law was fitted, never a per-law formula -- so
-every law is judged by the same yardstick:
+:class:`~fitdf.data.cores.CoreGeometry`, :func:`material_constants` converts the loop to the
+units in which manufacturers, and Appendix A of the thesis, characterise a core
+(permeabilities in gauss/oersted, inductions in gauss, the coercive force in oersted), and
+:func:`appendix_a_check` compares them with the printed ranges:
 
-* **initial permeability** ``mu_i``: the small-signal inductance ``L0 = Re N(a -> 0)``,
-  taken at ``a = 1e-6 current_max`` (:data:`SMALL_SIGNAL_RATIO`) and converted with
-  ``mu_r = L l_e / (mu_0 N^2 A_e)``; a decade above it is evaluated too, and the fit is
-  flagged when ``Re N`` still moves by more than 1 % over that decade;
-* **maximum permeability** ``mu_max``: the largest *amplitude* permeability
-  ``B_tip / H_tip = ascending_branch(a, a) / a`` over ``0 < a <= current_max``. The tips of
-  the symmetric loops trace the normal magnetization curve, whose largest ``B/H`` is the
-  catalogue's maximum permeability. When the largest value sits at ``current_max`` the
-  data never passed the knee and the number is only a lower bound (``maximum_at_edge``);
-* **coercive force** ``H_c``: the zero crossing of the ascending branch of the largest
-  loop (``a = current_max``), by vectorised bracketing on ``x``; NaN when the branch does
-  not cross zero inside ``[-a, a]`` (a loop without height);
-* **peak flux density** ``B_p = ascending_branch(a, a)`` and **residual induction**
+* **initial permeability** ``mu_i``: the small-signal inductance ``Re N`` at
+  ``a = 1e-6 current_max`` (:data:`SMALL_SIGNAL_RATIO`), flagged when ``Re N`` still moves
+  by more than 1 % over the decade above;
+* **maximum permeability** ``mu_max``: the largest amplitude permeability
+  ``B_tip / H_tip = ascending_branch(a, a) / a`` over ``0 < a <= current_max`` (the tips of
+  the symmetric loops trace the normal magnetisation curve); a lower bound only
+  (``maximum_at_edge``) when it sits at ``current_max``;
+* **coercive force** ``H_c``: the zero of the ascending branch of the largest loop
+  (``a = current_max``), NaN for a loop without height;
+* **peak flux density** ``B_p = ascending_branch(a, a)``, **residual induction**
   ``B_r = -ascending_branch(0, a)`` of the largest loop, and the squareness ``B_r / B_p``;
 * the fitted **winding resistance** against the Appendix A estimate
-  (:func:`fitdf.data.cores.winding_resistance_estimate`).
+  (:func:`fitdf.data.cores.winding_resistance_estimate`, accepted within
+  :data:`RESISTANCE_TOLERANCE`).
 
-The two permeabilities are defined differently, as the catalogues define them: ``mu_i``
-from the in-phase fundamental ``Re N``, ``mu_max`` from the secant to the loop's tip. They
-coincide for the Rayleigh loop (``Re N = mu0 + gamma a = B_tip / H_tip``), but where a
-law's loop keeps a finite width as ``a -> 0`` (the proportional width of eq 4.2) ``Re N``
-can exceed the tip secant, and ``mu_i > mu_max`` then says that the law's small-signal
-behaviour is not that of a real core rather than that the computation failed.
-
-For the Rayleigh loop these are the closed forms of the thesis: ``mu_i`` is eq 3.1's
-``mu0``, ``B_r = gamma H_m^2 / 2`` (eq 3.9) and ``H_c`` is eq 3.10 (3.11 for small loops);
-:mod:`tests.test_material` checks the generic computation against them.
-
-Assumptions (stated where they are made): Appendix A prints the constants of the
-material under the manufacturer's (unprinted) test conditions, while the fitted loop is
-the one of the thesis's sinusoidal-voltage tests at ``current_max``; a law whose
-parameters depend on frequency is evaluated at one frequency (the caller's choice: use the
-lowest data frequency, the closest to the quasi-static catalogue conditions); the
-geometry's stacking factor and mean path length are themselves assumptions
-(:mod:`fitdf.data.cores`). The parameters must be in winding units, i.e. come from a fit
-through the winding chain: a law fitted through the ``direct`` chain describes a
-dimensionless ratio and has no material constants.
+Notes
+-----
+Every constant comes from the loop itself (:meth:`ascending_branch` and
+:meth:`describing_function` of whatever law was fitted), never from a per-law formula, so
+every law is judged by the same yardstick; for the Rayleigh loop they are the thesis's
+closed forms (``mu_i`` is eq 3.1's ``mu0``, ``B_r`` eq 3.9, ``H_c`` eq 3.10), which
+``tests/test_material.py`` checks. ``mu_i`` comes from the in-phase fundamental and
+``mu_max`` from the secant to the loop's tip, as the catalogues define them; a law whose
+loop keeps a finite width as ``a -> 0`` (eq 4.2) can give ``mu_i > mu_max``. The
+parameters must be in winding units, i.e. come from a fit through the ``voltage`` or
+``winding`` chain: the ``direct`` chain fits a dimensionless ratio, which has no material
+constants. A frequency-dependent law is evaluated at one frequency (the caller's choice;
+fits use their lowest data frequency).
 """
 
 from __future__ import annotations

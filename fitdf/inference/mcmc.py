@@ -1,85 +1,49 @@
 """MCMC with emcee: a posterior for every parameter, started from the least-squares optimum.
 
-Likelihood
-    The Gaussian of :meth:`fitdf.inference.problem.FitProblem.pointwise_loglike` with two
-    *fitted* noise scales, one for magnitude and one for phase. Their priors are
-    log-uniform (Jeffreys) on 0.001..0.3 (magnitude) and 0.1..50 degrees (phase), wide
-    around the tables' printed precision (0.01, 1 degree), so the data say how well the
-    model can do, instead of assuming it. By default the sampler does not carry them: they
-    are integrated out of the likelihood (:mod:`fitdf.inference.noise`; the posterior of
-    the parameters is the same) and drawn from their law given the parameters for the
-    draws PSIS-LOO uses. Two dimensions fewer, and no funnel between a noise scale and the
-    parameters it loosens: on Preisach B.5 the production acceptance rose from 0.05 to
-    0.11 and R-hat at the step limit fell from 1.43 to 1.06 (benchmarks/README.md).
-Priors
-    Uniform on each parameter's internal coordinate inside its declared bounds: uniform
-    for ordinary parameters, log-uniform for log-scaled ones.
-Sampler coordinates
-    The walkers move in the logit coordinates of the prior box (:class:`BoxCoordinates`,
-    with the log-Jacobian added, so the posterior is the same): a parameter the data leave
-    undetermined, or push against a bound, is there a logistic density or an exponential
-    tail instead of a flat box whose walls reject half the proposals (frequency_hc on B.5,
-    with ``hc_a`` and ``hc_b`` at 0: acceptance 0.02-0.05 and no convergence in the box,
-    converged in 1300 steps in logit coordinates). Draws, diagnostics and the point
-    estimate are those of the internal parameters.
-Sampler
-    ``emcee.EnsembleSampler(..., vectorize=True)``: the log-probability of all walkers is
-    one batched call. A *pilot* of ``2 d + 2`` (or more) walkers starts in a Gaussian ball
-    of the least-squares covariance (clipped inside the bounds) and runs in rounds:
-    differential-evolution moves, then the production moves adapted to the previous
-    round's second half, again until a round's draws have the shape of the previous
-    round's and its moves accept (at least two adapted rounds, up to
-    ``max_pilot_rounds``, 6). The
-    walkers start at the least-squares optimum, which is not the posterior's centre where
-    the fitted noise scales weigh magnitude and phase differently or a ridge runs to a
-    bound: on constant_width/B.3 one adapted round left the production chains at R-hat 1.5
-    (tau ~200), six converge in 2300 steps (tau ~17). It is burn-in and adaptation, and is
-    discarded. *Production* continues
-    ``n_chains`` (8) of the pilot's walkers as independent Markov chains with three moves
-    (:mod:`fitdf.inference.proposals`): an independence Metropolis-Hastings move whose
-    proposal is a kernel density on the draws of every adapted pilot round (with a
-    defensive Student t), 40 % of the time; differential evolution on the same draws as a
-    fixed archive (DE-MCz: steps along the posterior's ridges, and between its lobes),
-    40 %; and a random-walk Metropolis move with the last round's covariance at the
-    Gaussian-optimal scale ``2.38^2/d``, 20 %. Where the pilot's draws spread a
-    coordinate like its prior (a parameter the data leave free: cubic_hc's ``h0_ratio``
-    and ``bend``), a fourth move draws one such coordinate from its prior, 20 % of the
-    time, the others in proportion (:class:`~fitdf.inference.proposals.PriorCoordinateProposal`).
-    The proposals are fixed before production
-    starts, so production is an ordinary Markov chain with the posterior as its
-    stationary law.
+Provides :func:`fit_mcmc`, which samples the posterior of a
+:class:`~fitdf.inference.problem.FitProblem` from its least-squares fit and returns a
+:class:`~fitdf.inference.results.PosteriorResult`; the vectorised log-posterior
+:class:`LogPosterior` and the sampler's coordinates :class:`BoxCoordinates`; the diagnostics
+:func:`autocorr_time` and :func:`chain_diagnostics`; and the convergence rule
+:func:`is_converged` with its thresholds :data:`MIN_STEPS_OVER_TAU` (50 autocorrelation
+times), :data:`RHAT_MAX` (1.01) and :data:`MIN_ESS` (400).
 
-    Why: R-hat compares chains, and needs each of them long (Vehtari et al. 2021: bulk ESS
-    of ~100 per chain for R-hat < 1.01), which an ensemble of 20-30 coupled walkers pays for
-    20-30 times; differential evolution alone had autocorrelation times of 15-50 steps
-    here. Where the pilot covered the posterior the kernel move draws nearly independent
-    samples, side lobes included; the random walk keeps the chain moving where it is a
-    poor fit (skewed, or flat down to a bound, as for parameters the data leave
-    undetermined). A seed fixes the whole run.
-Diagnostics
-    Integrated autocorrelation time per parameter (emcee), acceptance fraction, and
-    rank-normalised R-hat and bulk ESS from ArviZ (walkers as chains), all on the
-    production chain; PSIS-LOO and WAIC from the pointwise log-likelihood. Converged means
-    at least 50 autocorrelation times, every R-hat below 1.01 and every bulk ESS at least
-    400 (:func:`is_converged`); the chain is extended until it is, up to ``max_steps``,
-    and no longer once 50 autocorrelation times exceed ``max_steps`` (it cannot converge
-    there: its time goes to the chains that can; a warning names the length it needs).
-    A chain that reaches ``max_steps`` on course for 50 autocorrelation times but short of
-    R-hat or ESS may go on to ``extend_steps``, while 50 autocorrelation times fit in that
-    (cubic_hc on B.3: converged at 4300 steps).
-Caveats
-    Besides the diagnostics, the warnings name what the posterior does not settle
-    (:mod:`fitdf.inference.caveats`): a parameter whose posterior runs into a bound of its
-    box, or that the data leave open (68 % interval over a decade, or half its box), and
-    any limit of the loop family the model meets at the point estimate
-    (:meth:`fitdf.models.base.HysteresisModel.limit_warnings`). Those are, in the report,
-    what the chains that do not converge have in common: weakly determined parameters
-    whose range couples to the others (Preisach's ``l_rev`` when ``f_rev`` is small) and
-    kinks (cubic_hc's widest loop).
-Point estimate
-    ``values``, residuals and metrics use the draw of highest posterior; intervals are
-    posterior percentiles (a warning says when the per-parameter medians fit far worse,
-    the sign of a multimodal posterior).
+Notes
+-----
+The likelihood is the Gaussian of
+:meth:`~fitdf.inference.problem.FitProblem.pointwise_loglike` with two fitted noise scales,
+magnitude and phase, under log-uniform priors on :data:`NOISE_BOUNDS` (0.001-0.3 and
+0.1-50 degrees, wide around the tables' printed precision); by default they are integrated
+out of the likelihood (:mod:`fitdf.inference.noise`) and drawn afterwards for the draws
+PSIS-LOO uses. Each parameter has a uniform prior on its internal coordinate inside its
+bounds (log-uniform for log-scaled parameters), times the problem's Gaussian priors (the
+winding resistance's). The walkers move in the logit coordinates of that box, with the
+log-Jacobian added, so the posterior is unchanged. A pilot of at least ``2 d + 2`` walkers
+starts in a ball of the least-squares covariance, runs one round of differential evolution,
+then rounds of the production moves adapted to the previous round, until a round's draws
+keep the previous round's shape and its moves accept (at least two adapted rounds, at most
+``max_pilot_rounds``); it is discarded. Production continues ``n_chains`` of its walkers as
+independent Metropolis-Hastings chains with the fixed moves of
+:func:`fitdf.inference.proposals.production_moves`, and is extended in blocks until
+:func:`is_converged` holds (at least 50 integrated autocorrelation times, every
+rank-normalised R-hat below 1.01, every bulk ESS at least 400) or ``max_steps`` is reached;
+it stops earlier once 50 autocorrelation times exceed ``max_steps``, and a chain that
+reaches ``max_steps`` on course for 50 autocorrelation times but short of R-hat or ESS may
+go on to ``extend_steps``. The point estimate is the draw of highest posterior, intervals
+are posterior percentiles, and the warnings name what the posterior does not settle
+(:mod:`fitdf.inference.caveats`). A seed fixes the whole run.
+
+References
+----------
+Foreman-Mackey, D., Hogg, D. W., Lang, D. and Goodman, J., "emcee: the MCMC hammer",
+Publ. Astron. Soc. Pac. 125, 306 (2013).
+
+Vehtari, A., Gelman, A., Simpson, D., Carpenter, B. and Bürkner, P.-C.,
+"Rank-normalization, folding, and localization: an improved R-hat for assessing convergence
+of MCMC", Bayesian Analysis 16, 667 (2021).
+
+Vehtari, A., Gelman, A. and Gabry, J., "Practical Bayesian model evaluation using
+leave-one-out cross-validation and WAIC", Statistics and Computing 27, 1413 (2017).
 """
 
 from __future__ import annotations

@@ -1,30 +1,31 @@
 """The fitted noise scales integrated out of the likelihood (collapsed sampling).
 
+Provides :class:`NoiseMarginal`: for a residual vector, the likelihood with the two noise
+scales integrated out, and draws of the scales from their law given it; the scales' log10
+bounds :data:`NOISE_BOUNDS` (the support of their log-uniform priors) and names
+:data:`NOISE_NAMES`.
+
+Notes
+-----
 MCMC fits two noise scales besides the model's parameters: ``sigma_m`` of the magnitude
-(radial) residuals and ``sigma_p`` of the phase (tangential residuals over ``|D|``, with
-the noise floor of :class:`fitdf.data.fitdata.NoiseModel`), each with a log-uniform
-(Jeffreys) prior on :data:`NOISE_BOUNDS` (:mod:`fitdf.inference.mcmc`). Given the
-parameters, the two scales enter only through the residuals, so the sampler can work on
-the *marginal* likelihood
+residuals ``r_i`` and ``sigma_p`` of the phase, whose arc residuals ``t_i`` (phase error
+times ``|D_i|``) have the scale ``s_t,i = hypot(|D_i| sigma_p, floor)`` with the floor of
+:class:`fitdf.data.fitdata.NoiseModel`. Given the parameters the scales enter only through
+the residuals, so the sampler works on the marginal likelihood::
 
-    L(theta) = Int Int prod_i N(r_i; 0, s_r) N(t_i; 0, s_t,i) p(sigma_m) p(sigma_p) dsigma_m dsigma_p,
+    L(theta) = Int Int prod_i N(r_i; 0, sigma_m) N(t_i; 0, s_t,i)
+                       p(sigma_m) p(sigma_p) dsigma_m dsigma_p
 
-``s_r = sigma_m``, ``s_t,i = hypot(|D_i| sigma_p, floor)``, and draw the scales afterwards
-from their conditional law given each parameter draw: the joint posterior is the same,
-the walkers move in two dimensions fewer, and the funnel between a noise scale and the
-parameters it loosens (the widest autocorrelation times of Preisach on B.2) is gone.
-
-The integrals are one-dimensional (the two factors separate) and are taken in
-``u = log10 sigma`` by a composite Gauss-Legendre rule (10 nodes per panel, panels of
-0.05 or five conditional widths ``1 / (ln 10 sqrt(2 n))`` for ``n`` rows, whichever is
-smaller): the integrand is a smooth bump inside the box, a flat plateau (the phase scale
-below ``floor / |D|``, 0.6 degrees at ``|D| = 1``, where the tangential scale is the
-floor's), or a steep exponential against a bound (a scale the data push out of the box:
-``exp(-n ln(10) u)`` at the magnitude's lower bound), and the rule resolves all three;
-against the magnitude factor in closed form (an incomplete gamma function) and the phase
-factor by adaptive quadrature the error in ``log L`` is below 1e-8
-(``tests/test_noise_marginal.py``). About 1000 nodes per residual vector: a matrix
-product beside the model's own evaluation.
+and the scales are drawn afterwards from their law given each parameter draw: the joint
+posterior is the same, the walkers move in two dimensions fewer, and there is no funnel
+between a noise scale and the parameters it loosens. The two integrals separate; each is
+taken in ``u = log10 sigma`` by a composite 10-node Gauss-Legendre rule on panels of 0.05,
+or of five conditional widths ``1 / (ln 10 sqrt(2 n))`` for ``n`` rows where that is
+smaller (about 1000 nodes per residual vector). The rule resolves a smooth bump inside the
+box, the plateau of the phase scale below ``floor / |D|`` and a steep exponential against a
+bound alike: against the magnitude factor in closed form (an incomplete gamma function) and
+the phase factor by adaptive quadrature, the error in ``log L`` is below 1e-8
+(``tests/test_noise_marginal.py``).
 """
 
 from __future__ import annotations
@@ -34,16 +35,11 @@ from scipy.special import logsumexp
 
 __all__ = ["NOISE_BOUNDS", "NOISE_NAMES", "NoiseMarginal"]
 
-#: log10 bounds of the fitted noise scales (magnitude, phase in degrees). The magnitude's
-#: upper bound is 0.3, not 1: 30 times the tables' printed precision and twice the largest
-#: magnitude RMS of any law's least-squares fit (0.15). A wider box let the posterior of a
-#: law that predicts DF ~ 0 trade every magnitude for its phases: with the phase error once
-#: measured on the *predicted* DF, that point (constant_width and cubic_hc on B.3
-#: "converged" at sigma_magnitude 0.64, magnitude RMS 0.63, phase RMS 0.00 deg, k = 0.35 H
-#: against the least-squares 49 H) had the higher posterior. The phase error is now
-#: measured on the measured ``|D|`` (:mod:`fitdf.inference.problem`) and that point is
-#: 190 log units below the least-squares one even with the box up to 1
-#: (``tests/test_noise_marginal.py``); the box stays as the prior of a measurement noise.
+#: log10 bounds of the fitted noise scales (magnitude, phase in degrees): the prior of a
+#: measurement noise. The magnitude's upper bound is 0.3: 30 times the tables' printed
+#: precision and twice the largest magnitude RMS of any law's least-squares fit (0.15); a
+#: wider box admits a posterior mode in which a law predicting DF ~ 0 trades every
+#: magnitude for its phases (``tests/test_noise_marginal.py``).
 NOISE_BOUNDS = np.array([[-3.0, np.log10(0.3)], [-1.0, np.log10(50.0)]])
 NOISE_NAMES = ("sigma_magnitude", "sigma_phase_deg")
 

@@ -16,11 +16,9 @@ noise (with a floor), so a degree of phase counts less where the DF itself is ti
 where the analyser's phase reading means little. Where ``D = 0`` there is no phase, and
 only the magnitude counts.
 
-(To first order this is the complex error ``M - D`` split along the measured phasor:
-radial ``Re((M - D) u*)`` and tangential ``Im((M - D) u*)``, ``u = D/|D|``, which is what
-fitdf used before. That tangential part is ``|M| sin(dphi)``: measured on the
-*predicted* magnitude, so a law predicting ``M ~ 0`` fitted every phase, and posteriors
-found that mode, ``tests/test_noise_marginal.py``.)
+To first order this is the complex error ``M - D`` split along the measured phasor. The
+phase error is measured on ``|D|``, not on the predicted ``|M|``: measured on ``|M|``, a law
+predicting ``M ~ 0`` would fit every phase (``tests/test_noise_marginal.py``).
 """
 
 from __future__ import annotations
@@ -255,7 +253,7 @@ class FitProblem:
         return np.abs(predicted) - absD, absD * phase
 
     def scales(self, sigma_magnitude=None, sigma_phase_deg=None):
-        """Magnitude and arc (|D| x phase) noise scales per row (broadcast against batches)."""
+        """Magnitude and arc (``|D|`` x phase) noise scales per row (broadcast against batches)."""
         sm = (
             self.noise.sigma_magnitude
             if sigma_magnitude is None

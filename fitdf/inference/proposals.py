@@ -1,31 +1,30 @@
-"""Proposals of the MCMC production chains: a kernel-density independence move, differential
-evolution on an archive, and a random walk.
+"""Proposals of the MCMC production chains, and the mix of moves built from the pilot.
 
-All three act on each walker alone (no ensemble move), so the production walkers are
-independent Markov chains, which R-hat compares; all are fixed before production starts,
-so each chain is an ordinary Metropolis-Hastings chain with the posterior as its law.
+:func:`production_moves` returns the moves of the production chains of
+:func:`fitdf.inference.mcmc.fit_mcmc`, adapted to the pilot's draws, in the shares
+:data:`MOVE_SHARES`: the independence proposal :class:`KernelProposal` (Gaussian kernels on
+the draws, with a defensive Student t), the symmetric :class:`ArchiveDifferentialProposal`
+(differential evolution on a fixed archive of draws, DE-MCz) and a random walk at the
+Gaussian-optimal scale ``2.38^2 / d`` of the last round's covariance; where the pilot
+spreads a logit coordinate like its prior (:func:`free_columns`),
+:class:`PriorCoordinateProposal` redraws one such coordinate from its prior, at
+:data:`PRIOR_SHARE`. Every move acts on one walker alone and is fixed before production
+starts, so each walker is an ordinary Metropolis-Hastings chain with the posterior as its
+stationary law, and R-hat can compare them. The kernels cover what the pilot visited, side
+lobes of skewed posteriors included; the defensive t keeps the importance ratio bounded
+where it did not reach; steps between archived draws follow curved ridges and, at
+``gamma = 1``, jump between lobes.
 
-Why a kernel density and not one Student t: the posteriors here are skewed and have side
-lobes that a single t cannot cover (Preisach on B.3: ``log10 l_rev`` mostly 0.7-0.8 with a
-lobe near 0.35 that chains entered through the random walk and left only after hundreds
-of steps; the t-independence move had acceptance 0.05-0.12 there and the chains did not
-converge within 4000 steps). A Gaussian kernel on each of the pilot's draws, pooled over
-its adapted rounds, covers what the pilot visited, lobes included; a defensive t (a tenth
-of the mixture, wider than the draws) keeps the importance ratio bounded where the pilot
-did not reach (Hesterberg 1995, "Weighted average importance sampling and defensive
-mixture distributions"). The random walk, at the Gaussian-optimal scale ``2.38^2/d`` of
-the last round's covariance, keeps the chain moving where neither fits.
+References
+----------
+Hesterberg, T., "Weighted average importance sampling and defensive mixture
+distributions", Technometrics 37, 185 (1995).
 
-Why differential evolution on an archive (DE-MCz; ter Braak & Vrugt 2008, "Differential
-Evolution Markov Chain with snooker updater and fewer chains", *Stat. Comput.* 18, 435):
-the step ``gamma (z1 - z2)`` between two of the pilot's draws has the posterior's local
-scale and orientation along curved ridges (Preisach's ``i_i``, ``l_rev`` and ``sigma_c``,
-weakly determined and coupled), where one covariance does not, and with ``gamma = 1`` it
-carries a chain from the lobe of ``z2`` to the lobe of ``z1``. The archive is fixed, so the
-increment's law does not depend on the chain and is symmetric (``z1``, ``z2`` swap): an
-ordinary Metropolis move, each chain on its own. Measured (benchmarks/README.md,
-thirteenth pass): Preisach on B.3 converged in 1800 steps (autocorrelation time 15) where
-the kernel and random-walk mix stopped unconverged at 3100 (84).
+ter Braak, C. J. F. and Vrugt, J. A., "Differential Evolution Markov Chain with snooker
+updater and fewer chains", Statistics and Computing 18, 435 (2008).
+
+Roberts, G. O., Gelman, A. and Gilks, W. R., "Weak convergence and optimal scaling of
+random walk Metropolis algorithms", Annals of Applied Probability 7, 110 (1997).
 """
 
 from __future__ import annotations

@@ -4,7 +4,8 @@ The numba kernels of :mod:`fitdf.models.jiles_atherton`: the Langevin function a
 anhysteretic (vectorised and compiled), the half cycle integrated in the effective field
 (cubic-Hermite ``M_an``, exact relaxation of ``M_irr``, adaptive steps) recording the
 branch nodes, and the safeguarded secant iteration for the symmetric steady loop. The
-formulation is in the docstring of :mod:`fitdf.models.jiles_atherton`.
+formulation is in :mod:`fitdf.models.jiles_atherton` and, in full, in the documentation's
+method pages (hysteresis laws).
 
 numba caches a compiled caller (``cache=True``) by the caller's own source file: after
 editing this module, delete ``fitdf/models/__pycache__/*.nb[ic]``, or the callers in
@@ -48,7 +49,7 @@ def _langevin2(z):
 
 
 def langevin(z):
-    """Langevin function ``L(z) = coth z - 1/z`` (series below |z| = 0.1), vectorised."""
+    """Langevin function ``L(z) = coth z - 1/z`` (series below ``|z| = 0.1``), vectorised."""
     z = np.asarray(z, dtype=float)
     az = np.maximum(np.abs(z), 0.1)
     one_q = -np.expm1(-2.0 * az)

@@ -3,9 +3,10 @@
 The Gaussian relay density of :mod:`fitdf.models.preisach` in closed form: the Everett
 function as differences of bivariate normal distribution functions (Owen's ``T``), its
 ``alpha`` derivative, the steady rising branch (a compiled loop, two of Genz's bivariate
-normals per point, :mod:`fitdf.models._bvn`; the NumPy/Owen's-``T`` form is its reference), the reversible
-arctangent and the Rayleigh constant of the low-amplitude limit; and the fixed graded
-Gauss-Legendre rule (numba) for the relay part of ``N(A)``. The derivations are in the docstring of :mod:`fitdf.models.preisach`.
+normals per point, :mod:`fitdf.models._bvn`; the NumPy/Owen's-``T`` form is its reference),
+the reversible arctangent and the Rayleigh constant of the low-amplitude limit; and the
+fixed graded Gauss-Legendre rule (numba) for the relay part of ``N(A)``. The derivations
+are in the docstring of :mod:`fitdf.models.preisach`.
 """
 
 from __future__ import annotations

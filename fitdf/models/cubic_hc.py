@@ -2,7 +2,7 @@
 
 The coercive force (loop half-width) is ``H_c = alpha H_m - beta H_m^3`` (eq 4.8) with,
 as in the K-S magnet steel fit of eq 4.11, a dead zone below ``h0`` and a linear tail
-beyond ``h1``. With ``A`` the peak input (``H_m``) the half-width is
+beyond ``h1``. With ``A`` the peak input (``H_m``) the half-width is::
 
     b(A) = max(alpha (A - h0) - beta A^3, 0)           for A <= h1,
     b(A) = b(h1) + tail_slope (A - h1)                  for A >  h1,
@@ -11,33 +11,21 @@ continuous by construction. It sets ``m = b(A)/A`` (clipped to ``[0, 1]``) in th
 of Fig 4.2 (:class:`~fitdf.models.proportional_width.ProportionalWidthFig42`, eqs 4.6 and
 4.7), exactly as the thesis substitutes eq 4.11 into eqs 4.6/4.7 for Graph 4.7.
 
-Parameters: the same law, in coordinates the data determine
-------------------------------------------------------------
 :class:`CubicHc` is fitted in ``(h1, m1, tail_slope, h0_ratio, bend)`` instead of eq 4.8's
 ``(alpha, beta, h0, h1, tail_slope)`` (:func:`cubic_law` and :func:`cubic_shape` convert):
+``m1 = b(h1)/h1`` is the loop's relative width (``m`` of eq 4.2) where the tail starts,
+``h0_ratio = h0/h1`` where the dead zone ends, and ``bend = beta h1^3 / (alpha (h1 - h0))``
+the fraction of the linear rise that the cubic term takes back at ``h1``, so that
+``alpha = m1 / ((1 - h0_ratio)(1 - bend))``, ``h0 = h0_ratio h1`` and
+``beta = bend m1 / ((1 - bend) h1^2)``. Rows on the tail determine ``b(h1) = m1 h1``, one
+number for eq 4.8's three constants; ``h0_ratio`` and ``bend`` only shape the law below the
+rows, and the data leave them as free axes of the box instead of a curved ridge through
+``alpha``, ``beta`` and ``h0``. The family is eq 4.8's with ``0 <= h0 < h1`` and
+``b(h1) > 0``; the bounds add ``bend <= 0.95``, ``h0_ratio <= 0.95`` and ``m1 <= 10``.
 
-* ``m1 = b(h1)/h1``, the loop's relative width (``m`` of eq 4.2) where the tail starts;
-* ``h0_ratio = h0/h1``, where the dead zone ends, as a fraction of ``h1``;
-* ``bend = beta h1^3 / (alpha (h1 - h0))``, the fraction of the linear rise that the
-  cubic term takes back at ``h1``,
-
-so that ``alpha = m1 / ((1 - h0_ratio)(1 - bend))``, ``h0 = h0_ratio h1`` and
-``beta = bend m1 / ((1 - bend) h1^2)``.
-
-Why: where the measured rows lie on the tail (all of Deltamax's but one, whose tail
-starts near its lowest currents) the data see ``b(h1) = alpha (h1 - h0) - beta h1^3``, one
-number for three constants. In eq 4.8's coordinates that left a curved ridge over decades
-of ``alpha``, ``beta`` and ``h0`` (the report's chains: acceptance 1-4 %, R-hat up to
-1.7). Here ``b(h1)`` is ``m1 h1``, and the two constants the data leave free there,
-``h0_ratio`` and ``bend``, only shape the law below the rows: axes of a box the sampler
-crosses freely. The family is eq 4.8's with ``0 <= h0 < h1`` and ``b(h1) > 0``; the
-bounds add ``bend <= 0.95``, ``h0_ratio <= 0.95`` and ``m1 <= 10``.
-
-(The tail's intercept ``b(h1) - tail_slope h1`` in place of ``m1`` was tried too: it
-straightens the ridge ``m1 h1 ~ const`` of a tail that starts below the rows, but mixed
-worse on B.1 and B.5; benchmarks/README.md, twelfth pass.)
-
-Thesis discrepancies found and handled here:
+Notes
+-----
+Two printed formulas are corrected here:
 
 * eq 4.11 as printed is discontinuous at ``H_m = 5``: the cubic piece gives
   ``0.6*5 - 0.3 - 7.5e-3*125 = 1.7625`` and the tail ``0.04*5 + 1.6 = 1.8``. The model

@@ -1,9 +1,7 @@
 """Jiles-Atherton model (Jiles & Atherton 1986) in winding units, steady loops by integration.
 
-Model
------
-Jiles and Atherton (J. Magn. Magn. Mater. 61, 48-60, 1986) write the magnetisation as an
-irreversible (pinned-wall) part and a reversible (wall-bowing) part,
+Jiles and Atherton write the magnetisation as an irreversible (pinned-wall) part and a
+reversible (wall-bowing) part::
 
     H_e   = H + alpha M                              (Weiss mean field)
     M_an  = M_s L(H_e / a),  L(z) = coth z - 1/z     (Langevin anhysteretic)
@@ -11,76 +9,48 @@ irreversible (pinned-wall) part and a reversible (wall-bowing) part,
     M     = M_irr + c (M_an - M_irr)                 (reversible part)
 
 with ``delta = sign(dH)``. This module keeps these four relations as they stand and
-integrates them in the effective field ``H_e``:
+integrates them in the effective field ``H_e``::
 
     dM/dH_e = X = (1 - c) chi_irr + c dM_an/dH_e,   chi_irr = max(delta (M_an - M_irr), 0) / k,
     dH/dH_e = 1 - alpha X,   hence   dM/dH = X / (1 - alpha X).
 
-The 1986 paper's ``dM_irr/dH = (M_an - M_irr) / (delta k - alpha (M_an - M_irr))`` is this
-with the mean field fed by ``M_irr`` instead of ``M`` (they agree for ``c = 0``); integrated
-independently it moves the coercive field and remanence of the published loop by ~1 %
-(tests). Formulation choices, and the known defects they remove:
-
-* *Negative susceptibility after reversals.* Right after a reversal ``delta (M_an - M_irr)``
-  is negative and the raw equation would move ``M_irr`` against the field. The standard fix
-  (the "delta_M" switch) is used: ``chi_irr = 0`` until ``M_an`` catches up with ``M_irr``,
-  so ``X >= 0``.
-* *No singularity.* Starting from 0 at the switch, the lag obeys ``lag' = dM_an/dH_e - lag/k``,
-  so ``lag <= k sup dM_an/dH_e`` and ``X <= M_s / 3a``. With ``zeta = alpha M_s / 3a < 1``
-  (the parameter's bounds) ``alpha X <= zeta < 1``: ``dM/dH`` is positive and at most
-  ``(M_s / 3a) / (1 - zeta)``, so the singular, negative or "avalanche" slopes of the H-form
-  cannot occur. For ``zeta >= 1`` (spontaneously magnetised anhysteretic; functions accept
-  it) ``H(H_e)`` may fold back; the part a rising ``H`` cannot reach is then cut into a
-  vertical jump at the fold's field (an assumption about the avalanche), and the symmetric
-  steady loop need not be unique.
-* *Integration.* Over a step ``M_an`` is replaced by its cubic Hermite interpolant (values
-  and slopes at both ends) and the irreversible equation, a linear relaxation of length
-  ``k``, is integrated exactly for it (exponential integrator with the ``phi_1 .. phi_4``
-  functions), so steps need not be small compared with ``k``. The switch and the tip are
-  nodes. Steps keep the cubic-Hermite error of ``M`` below ``tol lambda_s`` (fourth
-  derivatives of the Langevin function and of the relaxation transient), at least
-  ``n_min`` per branch. The branch is stored as its nodes ``(H_e, M, dM/dH_e)``: a
-  fourth-order parametric cubic in ``H_e``.
-* *Steady state.* The symmetric loop of peak ``A`` is the fixed point of the half cycle:
-  starting at ``(-A, M_b)`` the ascending branch must end at ``(A, -M_b)``. ``M_b`` is found
-  by a safeguarded secant iteration (coarse steps first, then fine), a few half cycles even
-  where cycling would take hundreds (``A << k``). The descending branch is the point
-  reflection by construction; the tests check both branches against a brute-force
-  multi-cycle integration from the demagnetised state.
-
-Winding units
--------------
-With ``N`` turns, path ``l_e``, section ``A_e``: ``H = N i / l_e`` and ``B = mu_0 (H + M)``,
-whose ``mu_0 H`` term (``L_0 = mu_0 N^2 A_e / l_e``, ~3e-4 H for the Permalloy core, against
->= 1 H from ``M``) is neglected. The parameters are
+:class:`JilesAtherton` is the law in winding units: with ``N`` turns, path ``l_e`` and
+section ``A_e``, ``H = N i / l_e`` and the output is ``lambda = mu_0 N A_e M`` (the
+``mu_0 H`` term, ~3e-4 H for the Permalloy core against >= 1 H from ``M``, is neglected),
+with the parameters::
 
     lambda_s = mu_0 N A_e M_s (V s),   a = a_JA l_e / N,   k = k_JA l_e / N (A),
     c = c_JA,   zeta = alpha_JA M_s / (3 a_JA),
 
-and the output is ``lambda = mu_0 N A_e M``. In these units ``i_e = i + alpha lambda`` with
-``alpha = 3 zeta a / lambda_s`` in 1/H (``= alpha_JA / L_0``, :func:`coupling`). The mean
-field is parametrised by ``zeta`` rather than ``alpha`` because ``zeta < 1`` (no spontaneous
-magnetisation) is a fixed box bound, while a bound on ``alpha`` would depend on ``a`` and
-``lambda_s``. Material constants: ``B_s = lambda_s / (N A_e)``; anhysteretic initial
-inductance ``(lambda_s / 3a) / (1 - zeta)``; small-signal inductance of the loop
-``N(0) = c L / (1 - zeta c)``, ``L = lambda_s / 3a`` (``mu_i = N(0) l_e / (mu_0 N^2 A_e)``);
-the coercive current (close to ``(1 - c) k`` for the published set) and remanence are read
-off the loop by :func:`loop_figures`. Any consistent units work: ``lambda_s = M_s`` and
-fields in A/m give the SI model (:data:`JA_1986`).
+so that ``i_e = i + alpha lambda`` with ``alpha = 3 zeta a / lambda_s`` (:func:`coupling`).
+``zeta < 1`` (no spontaneous magnetisation) is a fixed box bound, where a bound on
+``alpha`` would depend on ``a`` and ``lambda_s``. :func:`steady_loop`, :func:`loop_figures`
+and :func:`ja_describing_function` give the steady loop, its coercive current and
+remanence, and its describing function; any consistent units work (:data:`JA_1986`, the
+published parameter set, is in SI).
 
-Describing function
--------------------
-``N = (2/(pi A^2)) Int y_up'(x) [sqrt(A^2 - x^2) - j x] dx`` (eqs 2.1, 2.2 integrated by parts),
-evaluated on the parametric branch piece by piece with a 10-node Gauss-Legendre rule in
-``t = (1 - cos(pi v))/2`` (which removes the square-root end behaviour at the tips), plus
-``dM [sqrt(A^2 - x^2) - j x]`` for each jump. The referee applied to
-:meth:`JilesAtherton.ascending_branch` (the same cubics, inverted by Newton) agrees to ~1e-6
-(the loop closes to 1e-9 ``lambda_s``, and the rule takes it as closed: 7.6e-7 on the tests'
-avalanche set);
-against the exact solution of the equations the default ``tol = 1e-7`` is within 1.2e-6 of
-``|N|`` of a ``tol = 1e-11`` refinement over realistic parameters, and the branch within
-1e-5 of the tip (``benchmarks/bench_ja.py``; the voltage chain's DF moves by at most 3e-6,
-against its own ~2e-4 accuracy). ``tol = 1e-8`` was 1.4x slower per loop for 5x less.
+Notes
+-----
+The 1986 paper's ``dM_irr/dH = (M_an - M_irr) / (delta k - alpha (M_an - M_irr))`` is this
+model with the mean field fed by ``M_irr`` instead of ``M`` (the two agree for ``c = 0``).
+After a reversal ``chi_irr`` stays 0 until ``M_an`` catches up with ``M_irr`` (the usual
+fix of negative susceptibility), and for ``zeta < 1`` the slope ``dM/dH`` is positive and
+bounded, so the singular, negative or "avalanche" slopes of the H-form cannot occur (for
+``zeta >= 1`` a fold of ``H(H_e)`` becomes a vertical jump). Over each step ``M_an`` is
+replaced by its cubic Hermite interpolant and the irreversible equation, a linear
+relaxation of length ``k``, is integrated exactly for it (an exponential integrator), with
+steps that keep the error of ``M`` below ``tol lambda_s``; the branch is kept as its nodes
+``(H_e, M, dM/dH_e)``. The symmetric steady loop of peak ``A`` is the fixed point of the
+half cycle, found by a safeguarded secant iteration. The describing function,
+``N = (2/(pi A^2)) Int y_up'(x) [sqrt(A^2 - x^2) - j x] dx`` (eqs 2.1, 2.2 integrated by
+parts), is evaluated piece by piece on that branch with a 10-node Gauss-Legendre rule, plus
+a term for each jump; with the default ``tol = 1e-7`` it is within about 1e-6 of ``|N|`` of
+a far finer integration (``benchmarks/bench_ja.py``).
+
+References
+----------
+Jiles, D. C. and Atherton, D. L., "Theory of ferromagnetic hysteresis", J. Magn. Magn.
+Mater. 61, 48 (1986).
 """
 
 from __future__ import annotations

@@ -1,72 +1,55 @@
 """Scalar Preisach model with a Gaussian relay density, a reversible part and saturation.
 
-The classical Preisach model (Preisach 1935; Mayergoyz, *Mathematical Models of
-Hysteresis*, 1991, ch. 1) writes the output as a superposition of rectangular relays
-``gamma_{alpha,beta}`` that switch up (+1) when the input rises to ``alpha`` and down
-(-1) when it falls to ``beta <= alpha``. In the coercive/interaction coordinates of Néel
-and Della Torre (*Magnetic Hysteresis*, 1999),
-
-    h = (alpha - beta) / 2 >= 0   (coercive, half-width of the relay),
-    u = (alpha + beta) / 2        (interaction, bias field of the relay),
-
-this module takes the *product* density (an assumption: the two are independent)
+The classical Preisach model writes the output as a superposition of rectangular relays
+``gamma_{alpha,beta}`` that switch up (+1) when the input rises to ``alpha`` and down (-1)
+when it falls to ``beta <= alpha``. In the coercive and interaction coordinates
+``h = (alpha - beta) / 2 >= 0`` (half-width of a relay) and ``u = (alpha + beta) / 2`` (its
+bias), this module takes the product density (an assumption: the two are independent)::
 
     q(h, u) = f(h) g(u),   f = N(i_c, s^2) truncated to h >= 0,   g = N(0, i_i^2),
 
 ``s = sigma_c i_c``, normalised to unit mass, so the irreversible output ``P`` lies in
-``[-1, 1]``. The flux linkage is
+``[-1, 1]``. The flux linkage is::
 
-    lambda = lambda_s [ (1 - f_rev) P + f_rev (2/pi) atan(x / i_r) ],  i_r = 2 f_rev lambda_s / (pi l_rev),
+    lambda = lambda_s [ (1 - f_rev) P + f_rev (2/pi) atan(x / i_r) ],
+    i_r = 2 f_rev lambda_s / (pi l_rev),
 
-saturating at ``+-lambda_s`` by construction: the relays give the irreversible part, the
-arctangent the reversible rotation of section III.1 (its ``1/x`` approach to saturation
-is that of the Frohlich-Kennelly law ``1/mu = a + b H``). The reversible part is
-single-valued (an assumption; a diagonal relay density would be the alternative).
+saturating at ``+-lambda_s``: the relays give the irreversible part, the single-valued
+arctangent the reversible rotation of section III.1 (its ``1/x`` approach to saturation is
+that of the Frohlich-Kennelly law). :class:`Preisach` is the law; :func:`everett`,
+:func:`preisach_branch` and :func:`preisach_describing_function` its closed forms, and
+:class:`PreisachState` / :func:`preisach_output` its output under any input history.
 
-Why this density
-----------------
-* ``f(0) g(0) > 0``: near the origin the density is constant, which is exactly what
-  produces Rayleigh's law (Néel 1942; thesis eqs 3.1, 3.7). For amplitudes ``A`` well
-  below ``i_c`` and ``i_i`` the loop is Rayleigh's with ``mu0 = l_rev`` and
-  ``gamma = (1 - f_rev) lambda_s f(0) g(0)`` (:func:`rayleigh_constant`). A log-normal
-  ``f`` (the usual choice for particulate media) vanishes faster than any power at
-  ``h -> 0``, so it has no Rayleigh region at all; that rules it out for the thesis cores,
-  whose low-amplitude data follow eq 3.7.
-* The Everett function is in closed form: the mass of relays in the Preisach triangle is
-  a difference of bivariate normal distribution functions (Owen's ``T``), and its
-  derivative ``dE/dalpha`` is a Gaussian times a difference of ``erf``s. The factorised
-  Lorentzian (Bertotti, *Hysteresis in Magnetism*, 1998) needs dilogarithms once the
-  triangle ``alpha >= beta`` is respected, and its slow ``1/H`` tails are supplied here
-  by the reversible arctangent instead.
-* ``sigma_c, i_i << i_c`` gives the square loops of Deltamax; ``sigma_c ~ 1`` the round,
-  Rayleigh-dominated loops of Permalloy at low drive.
+Notes
+-----
+The Everett function ``E(alpha, beta)``, the mass of relays with
+``beta <= beta', alpha' <= alpha``, is a difference of bivariate normal distribution
+functions (Owen's ``T``), and its ``alpha`` derivative a Gaussian times a difference of
+``erf``. After wiping out, the rising branch of the symmetric steady loop of peak ``A``
+(relays outside ``T(A, -A)`` frozen with zero net output, as after AC demagnetisation) is
+``P_up(x) = -E(A, -A) + 2 E(x, -A)``, ``P_down(x) = -P_up(-x)``. Integrating eqs 2.1/2.2
+by parts gives, for any loop,
+``N = (2 / (pi A^2)) Int_{-A}^{A} y_up'(x) [sqrt(A^2 - x^2) - j x] dx``: the reversible
+part is exactly ``N_rev = 2 l_rev / (1 + sqrt(1 + (A/i_r)^2))``,
+and the relay part, with ``y_up' = 2 (1 - f_rev) lambda_s dE/dalpha(x, -A)``, is a smooth
+1-D integral taken by a fixed graded Gauss-Legendre rule. Because ``f(0) g(0) > 0`` the
+density is constant near the origin, which makes the loops of amplitudes well below
+``i_c`` and ``i_i`` Rayleigh loops (eqs 3.1, 3.7) with ``mu0 = l_rev`` and
+``gamma = (1 - f_rev) lambda_s f(0) g(0)`` (:func:`rayleigh_constant`). Material constants
+(``N`` turns, path ``l_e``, section ``A_e``): ``B_s = lambda_s / (N A_e)``; the coercive
+field of the major loop ``H_c ~ N i_c / l_e`` when ``sigma_c``, ``i_i / i_c`` and ``f_rev``
+are small; ``mu_i = l_rev l_e / (mu_0 N^2 A_e)``; the Rayleigh constant ``eta`` of
+``B = mu_i H + eta H^2`` is ``gamma l_e^2 / (N^3 A_e)`` in T m^2/A^2.
 
-Everett function and branches
------------------------------
-``E(alpha, beta)`` is the mass of relays with ``beta <= beta', alpha' <= alpha``
-(:func:`everett`). After wiping out, the rising branch of the symmetric steady loop of
-peak ``A`` (relays in ``T(A, -A)`` switching, those outside frozen with zero net output,
-as after AC demagnetisation) is
+References
+----------
+Preisach, F., "Über die magnetische Nachwirkung", Z. Phys. 94, 277 (1935).
 
-    P_up(x) = -E(A, -A) + 2 E(x, -A),   P_down(x) = -P_up(-x),
+Mayergoyz, I. D., *Mathematical Models of Hysteresis*, Springer (1991), ch. 1.
 
-and any history follows from the alternating dominant extrema (:class:`PreisachState`).
+Della Torre, E., *Magnetic Hysteresis*, IEEE Press (1999).
 
-Describing function
--------------------
-Integrating eqs 2.1/2.2 by parts with ``y_up(-A) = -y_up(A)`` gives, for any loop,
-
-    N = (2 / (pi A^2)) Int_{-A}^{A} y_up'(x) [sqrt(A^2 - x^2) - j x] dx.
-
-The reversible arctangent gives ``N_rev = 2 l_rev / (1 + sqrt(1 + (A/i_r)^2))`` exactly;
-the relay part, with ``y_up' = 2 (1 - f_rev) lambda_s dE/dalpha(x, -A)`` in closed form,
-is a smooth 1-D integral done by a fixed graded Gauss-Legendre rule
-(:func:`preisach_describing_function`). Material constants (``N`` turns, path ``l_e``,
-section ``A_e``): ``B_s = lambda_s / (N A_e)``; coercive field of the major loop
-``H_c ~ N i_c / l_e`` when ``sigma_c``, ``i_i / i_c`` and ``f_rev`` are small (it is the
-zero of the branch, see the tests); initial permeability
-``mu_i = l_rev l_e / (mu_0 N^2 A_e)``; Rayleigh constant ``eta`` of ``B = mu_i H + eta H^2``:
-``gamma l_e^2 / (N^3 A_e)`` in T m^2/A^2 (compare Appendix A).
+Néel, L., "Théorie des lois d'aimantation de Lord Rayleigh", Cahiers de Physique 12 (1942).
 """
 
 from __future__ import annotations

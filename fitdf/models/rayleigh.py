@@ -14,17 +14,17 @@ takes over; written for the branch value ``u`` of eq 3.7 it is the soft limiter
 ``y = u / (1 + |u| / c_sat)``, odd, with slope 1 at the origin and asymptote ``+-c_sat``.
 ``c_sat = inf`` switches it off.
 
-Describing function
--------------------
+Notes
+-----
 Without saturation eqs 2.1/2.2 integrate in closed form. Put ``x = A sin(theta)`` and
 ``mu* = mu0 + gamma A``. On the ascending half (``cos(theta) > 0``) and the descending
-half (``cos(theta) < 0``) of the period the output is, in one formula,
+half (``cos(theta) < 0``) of the period the output is, in one formula::
 
     y(theta) = mu* A sin(theta) - (gamma A**2 / 2) cos(theta)**2 sign(cos(theta)).
 
 The parabolic term is even in ``theta`` while ``sin`` is odd, so it drops out of eq 2.1
 and ``a1 = mu* A``. Eq 2.2 keeps it: ``int_0^{2 pi} |cos|**3 = 8/3`` gives
-``b1 = -(gamma A**2 / 2) (8 / 3) / pi = -4 gamma A**2 / (3 pi)``. Hence
+``b1 = -(gamma A**2 / 2) (8 / 3) / pi = -4 gamma A**2 / (3 pi)``. Hence::
 
     N(A) = mu0 + gamma A - j 4 gamma A / (3 pi),
 
