@@ -11,6 +11,7 @@ from fitdf.data.audit import (
     audit,
     block_factors,
     findings,
+    reversals,
     select_rows,
 )
 
@@ -19,6 +20,7 @@ __all__ = [
     "block_factors",
     "select_rows",
     "findings",
+    "reversals",
     "POLICIES",
     "MAG_SPIKE",
     "PHASE_SPIKE",

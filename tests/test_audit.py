@@ -161,6 +161,8 @@ def test_default_policy_excludes_exactly_the_untrusted_rows(a):
         ("B.5", 20, 1),
     ]
     assert len(audit.select_rows(a, "default")) == 255
+    assert len(audit.select_rows(a, "as_printed")) == 255  # the same rows, B.5 10 c/s as printed
+    assert (a["exclude_as_printed"] == a["exclude_default"]).all()
     assert len(audit.select_rows(a, "all")) == 262  # every row with DF and phase
     strict = audit.select_rows(a, "strict")
     assert len(strict) == (a["flag"] == "ok").sum() and (strict["flag"] == "ok").all()
@@ -182,7 +184,8 @@ def test_findings(b):
     assert any("B.1 f=3 c/s rows 2-9: h1_output_v printed 10^+1" in s for s in text)
     assert any("B.3 f=10 c/s row 1 (input 0.01 V) (thesis.txt line 1814)" in s for s in text)
     assert text[-1].startswith(
-        "Row policies on these 264 rows: 'all' keeps 262, 'default' keeps 255"
+        "Row policies on these 264 rows: 'all' keeps 262, 'default' keeps 255 (with the 13 rows "
+        "of the reversed column(s) in reversed order), 'as_printed' keeps 255, 'strict' keeps 210;"
     )
 
 

@@ -1,8 +1,11 @@
 """The rules of the row audit: the rows under audit, the checks and their thresholds.
 
-:func:`_analyse` runs the checks (1)-(5) of :mod:`fitdf.data.audit` on a frame and
-returns the flagged rows and the DF factor of each block; the public functions there
-(``audit``, ``block_factors``, ``select_rows``, ``findings``) read its output.
+:func:`_analyse` runs the checks (1)-(6) of :mod:`fitdf.data.audit` on a frame and
+returns the flagged rows, the DF factor of each block and the column-order verdict of
+each (block, column); :func:`_reversed_rows` audits the values the ``default`` policy fits
+(the columns check (6) finds printed in reverse order taken reversed). The public
+functions there (``audit``, ``block_factors``, ``reversals``, ``select_rows``,
+``findings``) read their output.
 """
 
 from __future__ import annotations
@@ -15,7 +18,19 @@ import pandas as pd
 
 from fitdf.errors import DataError
 
-__all__ = ["MAG_SPIKE", "PHASE_SPIKE", "MAG_NOISE", "STEP_OUTLIER"]
+__all__ = [
+    "MAG_SPIKE",
+    "PHASE_SPIKE",
+    "MAG_NOISE",
+    "STEP_OUTLIER",
+    "REVERSIBLE",
+    "REVERSAL_GAIN",
+    "REVERSAL_FIT",
+    "FLAT_RANGE",
+    "MIN_OVERLAP",
+    "MIN_NEIGHBOURS",
+    "EXTREME_ROWS",
+]
 
 # Calibration on the 264 bundled rows (best-of-three leave-one-out residuals of the 220
 # interior magnitude and 213 interior phase points, see _best_residual): the within-block
@@ -37,6 +52,36 @@ STEP_OUTLIER = 4.0
 #: Relative window (log10) around a block's median factor that counts as "following" it.
 _FACTOR_WINDOW = 0.02
 
+# Column order (check 6). A column is compared with the same column of its neighbouring
+# blocks (the other frequencies of its table and source impedance) on the normalised input
+# axis u = log(input / reference input), the reference being the block's saturation (``**``)
+# row, else the middle of its DF peak; the statistic is Spearman's rank correlation with each
+# neighbour's curve (linearly interpolated in u, over the block's points it covers), its
+# median over the neighbours is the block's score, printed and with the column reversed.
+# Calibration on the 21 bundled blocks: 57 of the 63 (block, column) pairs can be judged; the
+# printed columns score 0.36-1.00 but one, B.5 10 c/s phase (-0.08); reversing a column
+# raises the score by at most +0.02 except there (+0.99, to +0.91). The gain threshold sits
+# midway; the fit threshold below every genuine printed score. Reversing one of the other 56
+# judged columns in a copy is caught 41 times; the misses read nearly alike either way
+# (|gain| < 0.5: a phase minimum or DF peak in mid-block).
+#: Columns tested for a reversed order (the input column is the axis: see _check_reversals).
+REVERSIBLE = ("phase_lead_deg", "df_reported", "h1_output_v")
+#: The median rank correlation must rise by this much when the column is reversed ...
+REVERSAL_GAIN = 0.5
+#: ... and reach this, for the column to be flagged as printed in reverse order.
+REVERSAL_FIT = 0.3
+#: A column spanning less has no shape to compare (1.25x the spike thresholds: no feature
+#: larger than one slipped digit); h1_output_v only needs to vary.
+FLAT_RANGE = {"phase_lead_deg": 1.25 * PHASE_SPIKE, "df_reported": 1.25 * MAG_SPIKE}
+#: Points of a block a neighbour's curve must cover to be compared with it.
+MIN_OVERLAP = 4
+#: Comparable neighbours needed to judge: with one, either block could be the reversed one.
+MIN_NEIGHBOURS = 2
+#: Rows the phase minimum (DF maximum) may sit from the saturation row in a genuine column
+#: (every judged thesis column but one: B.5 10 c/s phase, 2); a reversal that would move it
+#: farther than this and than printed is vetoed.
+EXTREME_ROWS = 1
+
 _AUDIT_COLUMNS = (
     "flag",
     "reasons",
@@ -47,6 +92,8 @@ _AUDIT_COLUMNS = (
     "exclude_default",
     "df_recomputed",
     "df_tolerance",
+    "reversed_columns",
+    "exclude_as_printed",
 )
 _BLOCK = ["table", "source_impedance_ohm", "frequency_hz"]
 _FACTOR_COLUMNS = [
@@ -61,6 +108,18 @@ _FACTOR_COLUMNS = [
     "shift_column",
     "shift_rows",
 ]
+#: The reason a row of a reversed column carries (after the column's name).
+_REVERSED_REASON = "printed in reverse order within its block (column-order check"
+_REVERSAL_SCORES = (
+    "rho_printed",
+    "rho_reversed",
+    "gain",
+    "misfit_printed",
+    "misfit_reversed",
+    "extreme_printed",
+    "extreme_reversed",
+)
+_REVERSAL_COLUMNS = [*_BLOCK, "column", "neighbours", *_REVERSAL_SCORES, "reversed", "verdict"]
 
 
 # ------------------------------------------------------------------ the analysis
@@ -93,11 +152,24 @@ class _Rows:
             }
         )
         self.block = self.keys.groupby(_BLOCK, sort=False, dropna=False).ngroup().to_numpy()
+        self.sat = (
+            f["saturation"].astype("boolean").fillna(False).to_numpy(bool)
+            if "saturation" in f
+            else np.zeros(n, bool)
+        )
+        self.core = (
+            f["core"].fillna("").astype(str).str.lower().to_numpy()
+            if "core" in f
+            else np.full(n, "", dtype=object)
+        )
+        self.column = {"phase_lead_deg": self.p, "df_reported": self.d, "h1_output_v": self.h}
+        self.present = {c: bool(c in f and f[c].notna().any()) for c in self.column}
         self.order = col("row_in_block", 0.0) if "row_in_block" in f else np.arange(n, dtype=float)
         self.reasons = [[] for _ in range(n)]
         self.trust = {k: np.ones(n, bool) for k in ("amplitude", "magnitude", "phase", "h1")}
         self.suspect, self.dup_extra = np.zeros(n, bool), np.zeros(n, bool)
         self.d_exp, self.tol = np.full(n, np.nan), np.full(n, np.nan)
+        self.reversed = np.full(n, "", dtype=object)  # columns check (6) finds reversed
 
     def blocks(self):  # row positions of each block, in printed order
         for b in np.unique(self.block):
@@ -111,11 +183,17 @@ class _Rows:
         self.suspect[i] |= suspect
 
 
-def _analyse(df: pd.DataFrame):
+def _analyse(df: pd.DataFrame, judge_order: bool = True):
+    """Rows with their flags, DF factor per block, column-order verdicts (checks 1-6).
+
+    ``judge_order=False`` skips check (6): the frame holds the values a policy fits.
+    """
     r = _Rows(df)
     with np.errstate(divide="ignore", invalid="ignore"):  # user frames may hold zeros or NaN
         _check_cells(r)
         _check_order(r)
+        # before (3)-(5): a reversed output or DF column would make them blame other cells
+        order = _check_reversals(r) if judge_order else pd.DataFrame(columns=_REVERSAL_COLUMNS)
         blocks = _factor_analysis(r)
         _check_smoothness(r)
     out = r.frame.copy()
@@ -125,11 +203,60 @@ def _analyse(df: pd.DataFrame):
     out["reasons"] = ["; ".join(x) for x in r.reasons]
     for key in ("amplitude", "magnitude", "phase", "h1"):
         out[f"{key}_trusted"] = r.trust[key]
-    out["exclude_default"] = (
-        ~(r.trust["amplitude"] & r.trust["magnitude"] & r.trust["phase"]) | r.dup_extra
-    )
+    excluded = ~(r.trust["amplitude"] & r.trust["magnitude"] & r.trust["phase"]) | r.dup_extra
+    out["exclude_default"] = excluded
     out["df_recomputed"], out["df_tolerance"] = r.d_exp, r.tol
-    return out, blocks
+    out["reversed_columns"] = r.reversed
+    out["exclude_as_printed"] = excluded
+    if r.reversed.astype(bool).any():  # the default policy fits the reversed values
+        out["exclude_default"] = _reversed_rows(out)["exclude_default"].to_numpy(bool)
+    return out, blocks, order
+
+
+def _reversed_rows(audited: pd.DataFrame) -> pd.DataFrame:
+    """Audit (checks 1-5) of the values the ``default`` policy fits.
+
+    Each row's ``reversed_columns`` are taken in reverse printed order (``row_in_block``)
+    within its block, with their printed-digit counts; ``<column>_printed`` keeps the printed
+    values, ``reversed_columns`` says which were reversed, and each such row gets a note.
+    ``exclude_default`` is computed on these values; ``exclude_as_printed`` is copied from
+    ``audited`` (the printed rows' audit).
+    """
+    spec = audited["reversed_columns"].fillna("").astype(str).to_numpy()
+    frame = audited.drop(columns=[c for c in _AUDIT_COLUMNS if c in audited])
+    r = _Rows(frame)
+    values = {}
+    for name in dict.fromkeys(c for s in spec if s for c in s.split(",")):
+        if f"{name}_printed" in frame:  # these rows hold the reversed values already
+            continue
+        for c in (name, f"{name}_decimals"):
+            if c in frame:
+                values[c] = frame[c].to_numpy(copy=True)
+        frame[f"{name}_printed"] = frame[name]
+    for idx in r.blocks():
+        for name in spec[idx[0]].split(",") if spec[idx[0]] else ():
+            for c in (name, f"{name}_decimals"):
+                if c in values:
+                    values[c][idx] = frame[c].to_numpy()[idx][::-1]
+    if not values:  # nothing left to reverse: ``audited`` holds the fitted values already
+        return audited.copy()
+    for c, v in values.items():
+        frame[c] = pd.Series(v, index=frame.index).astype(frame[c].dtype)
+    out = _analyse(frame, judge_order=False)[0]
+    for i in np.flatnonzero(spec.astype(bool)):
+        note = "; ".join(
+            f"{c} taken in reverse order within its block (printed "
+            f"{frame[f'{c}_printed'].iloc[i]:g})"
+            for c in spec[i].split(",")
+        )
+        out.iloc[i, out.columns.get_loc("reasons")] = "; ".join(
+            x for x in (out["reasons"].iloc[i], note) if x
+        )
+        if out["flag"].iloc[i] == "ok":
+            out.iloc[i, out.columns.get_loc("flag")] = "note"
+    out["reversed_columns"] = spec
+    out["exclude_as_printed"] = audited["exclude_as_printed"].to_numpy(bool)
+    return out
 
 
 # ------------------------------------------------------------------ checks
@@ -377,7 +504,7 @@ def _attribute(r: _Rows, idx, i, d_exp, tol, K):
 
 def _off_sequence(r: _Rows, idx, i, a_imp) -> bool:
     """True when input ``i`` leaves an outlying log-step that the implied ``a_imp`` closes."""
-    seq = idx[(r.trust["amplitude"][idx] | (idx == i)) & ~r.dup_extra[idx]]
+    seq = idx[(r.trust["amplitude"][idx] & ~r.dup_extra[idx]) | (idx == i)]
     steps = np.abs(np.diff(np.log(r.a[seq])))
     steps = steps[steps > 0]
     pos = int(np.flatnonzero(seq == i)[0])
@@ -422,3 +549,201 @@ def _check_smoothness(r: _Rows):
                     untrust=(key,),
                 )
                 pts = np.delete(pts, worst)
+
+
+# ------------------------------------------------------------------ column order (6)
+def _ranks(x) -> np.ndarray:
+    """Ranks 1..n of ``x``, ties sharing their average rank."""
+    values, inverse, counts = np.unique(x, return_inverse=True, return_counts=True)
+    return (np.cumsum(counts) - (counts - 1) / 2.0)[inverse.ravel()]
+
+
+def _rank_corr(y, z) -> float:
+    """Spearman's rank correlation (average ranks for ties); NaN when a side is constant."""
+    ry, rz = _ranks(y), _ranks(z)
+    ry, rz = ry - ry.mean(), rz - rz.mean()
+    norm = np.sqrt((ry @ ry) * (rz @ rz))
+    return float(ry @ rz / norm) if norm > 0 else np.nan
+
+
+def _column_median(zs) -> np.ndarray:
+    """Median of each column of ``zs`` over its finite values (each column has one)."""
+    k = np.isfinite(zs).sum(axis=0)
+    s = np.sort(zs, axis=0)  # NaN sorts last
+    cols = np.arange(zs.shape[1])
+    return (s[(k - 1) // 2, cols] + s[k // 2, cols]) / 2.0
+
+
+def _reference(r: _Rows, idx, d) -> int | None:
+    """Position in ``idx`` of the block's saturation row, else of the middle of its DF peak."""
+    base = (r.a[idx] > 0) & r.trust["amplitude"][idx] & ~r.dup_extra[idx]
+    sat = np.flatnonzero(base & r.sat[idx])
+    if sat.size:
+        return int(sat[0])
+    ok = np.flatnonzero(base & np.isfinite(d))
+    if not ok.size:
+        return None
+    top = ok[d[ok] == d[ok].max()]
+    return int(top[len(top) // 2])
+
+
+def _curve(r: _Rows, idx, name, y, d):
+    """A block's column on the normalised axis: ``(u, y, positions, reference position)``.
+
+    ``u = log(input / reference input)`` at the rows whose ``y`` enters the comparison
+    (amplitude trusted, not a repeat, finite; for the phase, a non-zero output); ``d`` is
+    the DF the reference is taken from. None without a reference.
+    """
+    ref = _reference(r, idx, d)
+    if ref is None:
+        return None
+    ok = r.trust["amplitude"][idx] & ~r.dup_extra[idx] & np.isfinite(y) & (r.a[idx] > 0)
+    if name == "phase_lead_deg":
+        ok &= r.d[idx] > 0
+    return np.log(r.a[idx][ok] / r.a[idx[ref]]), y[ok], np.flatnonzero(ok), ref
+
+
+def _extreme_offset(name, curve, has_sat) -> float:
+    """Rows from the reference row to the phase minimum (DF maximum, when the block has a
+    saturation row); a run of equal extremes counts whole. NaN for other columns."""
+    _, y, pos, ref = curve
+    if name == "phase_lead_deg":
+        ext = pos[y == y.min()]
+    elif name == "df_reported" and has_sat:
+        ext = pos[y == y.max()]
+    else:
+        return np.nan
+    if ext.min() <= ref <= ext.max():
+        return 0.0
+    return float(ext.min() - ref if ext.min() > ref else ext.max() - ref)
+
+
+def _score(curve, neighbours):
+    """Median rank correlation with the neighbours' curves, how many compared, and the RMS
+    distance to their median curve (in the column's unit) over the points they cover."""
+    u, y = curve[0], curve[1]
+    rhos, zs = [], []
+    for nu, ny in neighbours:
+        inside = (u >= nu.min()) & (u <= nu.max())
+        if inside.sum() < MIN_OVERLAP:
+            continue
+        o = np.argsort(nu, kind="stable")
+        z = np.full(len(u), np.nan)
+        z[inside] = np.interp(u[inside], nu[o], ny[o])
+        rho = _rank_corr(y[inside], z[inside])
+        if np.isfinite(rho):
+            rhos.append(rho)
+            zs.append(z)
+    if not rhos:
+        return np.nan, 0, np.nan
+    zs = np.vstack(zs)
+    covered = np.isfinite(zs).any(axis=0)
+    mid = _column_median(zs[:, covered])
+    return float(np.median(rhos)), len(rhos), float(np.sqrt(np.mean((y[covered] - mid) ** 2)))
+
+
+def _judge(r: _Rows, idx, name, same, kin) -> dict:
+    """Check (6) for one (block, column): a record of :func:`_check_reversals`.
+
+    ``same`` are the ``(u, y)`` curves of the other blocks of its table and source impedance,
+    ``kin`` those of the same core's other tables (used when ``same`` gives too few).
+    """
+    rec = dict(r.keys.iloc[idx[0]], column=name, neighbours=0, reversed=False)
+    rec.update(dict.fromkeys(_REVERSAL_SCORES, np.nan))
+    y = r.column[name][idx]
+    hyp = {  # the DF peak a block without saturation row is referred to moves with the DF
+        False: _curve(r, idx, name, y, r.d[idx]),
+        True: _curve(r, idx, name, y[::-1], y[::-1] if name == "df_reported" else r.d[idx]),
+    }
+    if hyp[False] is None or hyp[True] is None or len(hyp[False][1]) < MIN_OVERLAP:
+        return {**rec, "verdict": f"cannot judge: fewer than {MIN_OVERLAP} usable rows"}
+    span, flat = float(np.ptp(hyp[False][1])), FLAT_RANGE.get(name, 0.0)
+    if span <= flat:
+        return {**rec, "verdict": f"cannot judge: its values span only {span:.3g} (<= {flat:g})"}
+    scores = {rev: _score(hyp[rev], same) for rev in (False, True)}
+    if min(s[1] for s in scores.values()) < MIN_NEIGHBOURS and kin:
+        scores = {rev: _score(hyp[rev], same + kin) for rev in (False, True)}
+    n = rec["neighbours"] = min(s[1] for s in scores.values())
+    if n < MIN_NEIGHBOURS:
+        return {
+            **rec,
+            "verdict": f"cannot judge: {n} comparable neighbour(s), {MIN_NEIGHBOURS} needed",
+        }
+    ext = {rev: _extreme_offset(name, hyp[rev], bool(r.sat[idx].any())) for rev in (False, True)}
+    rec.update(
+        rho_printed=scores[False][0],
+        rho_reversed=scores[True][0],
+        gain=scores[True][0] - scores[False][0],
+        misfit_printed=scores[False][2],
+        misfit_reversed=scores[True][2],
+        extreme_printed=ext[False],
+        extreme_reversed=ext[True],
+    )
+    flagged = bool(
+        rec["gain"] >= REVERSAL_GAIN
+        and rec["rho_reversed"] >= REVERSAL_FIT
+        and not abs(ext[True]) > max(abs(ext[False]), EXTREME_ROWS)  # NaN: no veto
+    )
+    return {**rec, "reversed": flagged, "verdict": "reversed" if flagged else "as printed"}
+
+
+def _check_reversals(r: _Rows) -> pd.DataFrame:
+    """Check (6): columns printed in reverse order within their block.
+
+    Every column of :data:`REVERSIBLE` of every block is compared, printed and reversed, with
+    the same column of its neighbouring blocks (module comment above :data:`REVERSIBLE`).
+    The input column is the axis of those comparisons, not a tested column: an input column
+    printed reversed would leave every other column reversed against it, so two or more
+    flagged columns of one block, with no judged column of it reading better as printed
+    (gain <= -REVERSAL_GAIN), are reported and reversed as its input column. The flagged
+    rows are marked suspect without losing trust: the policies decide which order a fit
+    uses (``default`` the reversed, ``as_printed`` the printed one).
+    """
+    blocks = list(r.blocks())
+    group = [tuple(r.keys.iloc[idx[0]][["table", "source_impedance_ohm"]]) for idx in blocks]
+    core = [r.core[idx[0]] for idx in blocks]
+    records = []
+    for name in REVERSIBLE:
+        if not r.present[name]:
+            continue
+        curves = [_curve(r, idx, name, r.column[name][idx], r.d[idx]) for idx in blocks]
+        curves = [c[:2] if c is not None and len(c[0]) >= 2 else None for c in curves]
+        for b, idx in enumerate(blocks):
+            others = [j for j in range(len(blocks)) if j != b and curves[j] is not None]
+            same = [curves[j] for j in others if group[j] == group[b]]
+            kin = [
+                curves[j] for j in others if group[j] != group[b] and core[b] and core[j] == core[b]
+            ]
+            records.append((b, _judge(r, idx, name, same, kin)))
+    for b, idx in enumerate(blocks):
+        mine = [rec for j, rec in records if j == b]
+        flagged = [rec["column"] for rec in mine if rec["reversed"]]
+        if not flagged:
+            continue
+        if len(flagged) >= 2 and not any(rec["gain"] <= -REVERSAL_GAIN for rec in mine):
+            for rec in mine:
+                if rec["reversed"]:
+                    rec["verdict"] = "reads reversed because the input column is"
+            records.append(
+                (
+                    b,
+                    {
+                        **{k: mine[0][k] for k in _BLOCK},
+                        "column": "input_v",
+                        "reversed": True,
+                        "verdict": f"reversed: {', '.join(flagged)} read reversed against it",
+                    },
+                )
+            )
+            flagged = ["input_v"]
+        r.reversed[idx] = ",".join(flagged)
+        n = len(idx)
+        for k, i in enumerate(idx):
+            for name in flagged:
+                j = idx[n - 1 - k]
+                fitted = f"the default policy fits {r.frame[name].iloc[j]:g}"
+                where = f"printed in row {r.order[j]:g}"
+                r.mark(i, f"{name} {_REVERSED_REASON}, see findings): {fitted}, {where}")
+    order = {c: k for k, c in enumerate((*REVERSIBLE, "input_v"))}
+    records.sort(key=lambda x: (x[0], order[x[1]["column"]]))
+    return pd.DataFrame([rec for _, rec in records], columns=_REVERSAL_COLUMNS)

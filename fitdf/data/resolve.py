@@ -23,8 +23,10 @@ def resolve_data(
 ) -> FitData:
     """Rows to fit from a dataset name, core name, CSV path, DataFrame or FitData.
 
-    The audit's row ``policy`` ("default", "all" or "strict", see datasets/README.md)
-    decides which printed rows are used; ``source_impedance`` (ohm) keeps only those rows.
+    The audit's row ``policy`` (one of :data:`fitdf.data.audit.POLICIES`: "default",
+    "as_printed", "all" or "strict", see datasets/README.md) decides which rows are used and
+    in which order a column the audit finds printed reversed is taken ("default" reverses
+    it); ``source_impedance`` (ohm) keeps only those rows.
     """
     if isinstance(data, FitData):
         return data
