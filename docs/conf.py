@@ -30,15 +30,6 @@ extensions = [
 
 templates_path = ["_templates"]
 
-# A few docstrings print a modulus as |D| outside literal markup, which reStructuredText reads
-# as a substitution reference; these definitions render them as written (the docstrings are
-# fitdf.inference.problem.FitProblem.scales, fitdf.inference.results.PosteriorResult
-# .predictive_band and fitdf.models._ja_integrate.langevin). Remove once they use ``|D|``.
-rst_prolog = """
-.. |D| unicode:: U+007C U+0044 U+007C
-.. |DF| unicode:: U+007C U+0044 U+0046 U+007C
-.. |z| unicode:: U+007C U+007A U+007C
-"""
 exclude_patterns = ["_build"]
 root_doc = "index"
 

@@ -23,6 +23,8 @@ import os
 import re
 import signal
 import sys
+import tempfile
+import textwrap
 import threading
 import traceback
 from pathlib import Path
@@ -39,6 +41,8 @@ CHAIN_CHOICES = ("direct", "winding", "voltage")
 DEFAULT_CHAIN = "voltage"
 #: ``fitdf.inference.ranking.METHOD_CHOICES`` and ``RANK_COLUMNS``.
 METHOD_CHOICES = ("lsq", "mcmc", "both")
+#: How the text names a fit's method.
+METHOD_NAMES = {"lsq": "least squares", "mcmc": "MCMC"}
 RANK_CHOICES = (
     "rms_complex",
     "rms_magnitude",
@@ -51,6 +55,8 @@ RANK_CHOICES = (
     "cv_rms_complex",
     "n_params",
 )
+#: How a dimensionless unit is printed (``fitdf.params.DIMENSIONLESS``).
+DIMENSIONLESS_UNIT = "-"
 #: numpy's legacy ``RandomState`` (the MCMC's walkers) takes seeds below 2**32.
 MAX_SEED = 2**32 - 1
 
@@ -168,10 +174,14 @@ def check_output_folder(option: str, path: str, *, replaced: bool = False) -> Pa
             raise OptionError(f"{option} {path}: {base} is a file, not a folder")
         if not os.access(base, os.W_OK | os.X_OK):
             raise OptionError(f"{option} {path}: no permission to write in {base}")
+        # permissions are not the only reason (a read-only or virtual file system such as
+        # /proc, a full disk): make and remove a folder where the command will write
+        os.rmdir(tempfile.mkdtemp(prefix=".fitdf-probe-", dir=base))
     except OptionError:
         raise
     except (OSError, ValueError) as exc:  # name too long, NUL byte, unreadable parent, ...
-        raise OptionError(f"{option} {path!r}: not a usable folder ({exc})") from None
+        reason = getattr(exc, "strerror", None) or exc
+        raise OptionError(f"{option} {path!r}: not a folder fitdf can write ({reason})") from None
     return target
 
 
@@ -264,16 +274,66 @@ def cmd_audit(args):
     return 0
 
 
+#: Longest line of the commands' text (``fitdf fit --wide`` prints every column regardless).
+TEXT_WIDTH = 100
+#: The ranking's columns with ``--wide`` (those with a value in some row).
+WIDE_COLUMNS = (
+    "rank",
+    "model",
+    "chain",
+    "method",
+    "n_params",
+    "rms_complex",
+    "rms_magnitude",
+    "rms_phase_deg",
+    "redchi",
+    "aicc",
+    "bic",
+    "looic",
+    "cv_rms_complex",
+    "indistinguishable_from",
+)
+#: The ranking's columns by default: ``chain`` and ``method`` only when they differ between
+#: rows, ``cv_rms_complex`` when it was computed, the ``--rank-by`` column when it is none of
+#: these, then ``ties``.
+BRIEF_COLUMNS = (
+    "rank",
+    "model",
+    "chain",
+    "method",
+    "n_params",
+    "rms_complex",
+    "aicc",
+    "cv_rms_complex",
+)
+#: What each column of the ranking means (the legend under the default table).
+COLUMN_MEANINGS = {
+    "n_params": "parameters fitted",
+    "rms_complex": "RMS of |predicted - measured| complex DF (V/V)",
+    "rms_magnitude": "RMS of |predicted| - |measured| (V/V)",
+    "rms_phase_deg": "RMS phase error (degree)",
+    "redchi": "reduced chi-square",
+    "aicc": "Akaike's information criterion corrected for few rows (lower is better)",
+    "bic": "Bayesian information criterion (lower is better)",
+    "looic": "PSIS leave-one-out information criterion (MCMC; lower is better)",
+    "waic": "widely applicable information criterion (MCMC; lower is better)",
+    "cv_rms_complex": "rms_complex of each frequency predicted from a fit to the others",
+}
+
+
 def cmd_models(args):
     from fitdf._json import clean
     from fitdf.chains import CHAINS
     from fitdf.models import MODELS
 
+    if args.law is not None and args.law not in MODELS:
+        raise OptionError(f"unknown law {args.law!r}; known: {', '.join(MODELS)}")
+    laws = [MODELS[args.law]] if args.law is not None else list(MODELS.values())
     if args.json:
         _emit_json(
             clean(
                 {
-                    "models": [m.describe() for m in MODELS.values()],
+                    "models": [m.describe() for m in laws],
                     "chains": [
                         {"name": c.name, "title": c.title, "parameters": [p.name for p in c.params]}
                         for c in CHAINS.values()
@@ -282,41 +342,174 @@ def cmd_models(args):
             )
         )
         return 0
-    for m in MODELS.values():
+    if args.law is not None:
+        print(_law_text(laws[0], CHAINS.values()))
+        return 0
+    for m in laws:
         print(
             f"{m.name}: {m.title} ({m.equations})"
             + ("  [N depends on frequency]" if m.frequency_dependent else "")
         )
         for p in m.params:
             print(
-                f"    {p.name:<11s} {p.unit:<8s} bounds [{p.bounds[0]:g}, {p.bounds[1]:g}]  {p.description}"
-                + (f" ({p.equation})" if p.equation else "")
+                f"    {p.name:<11s} {p.unit_label:<8s} bounds [{p.bounds[0]:g}, {p.bounds[1]:g}]  "
+                f"{p.description}" + (f" ({p.equation})" if p.equation else "")
             )
     print("\nMeasurement chains:")
     for c in CHAINS.values():
         print(f"{c.name}: {c.title}; parameters: {', '.join(p.name for p in c.params) or 'none'}")
+    print("\n'fitdf models LAW' explains one law, its parameters and the chains' parameters.")
     return 0
 
 
-def _ranking_text(table):
-    cols = [
-        "rank",
-        "model",
-        "chain",
-        "method",
-        "n_params",
-        "rms_complex",
-        "rms_magnitude",
-        "rms_phase_deg",
-        "redchi",
-        "aicc",
-        "bic",
-        "looic",
-        "cv_rms_complex",
-        "indistinguishable_from",
+def _params_text(params, indent: str = "  ") -> list[str]:
+    """Lines of declared parameters: name, unit, bounds, scale and thesis equation, then an
+    indented line of what each means (wrapped at :data:`TEXT_WIDTH`)."""
+    rows = [
+        [
+            p.name,
+            p.unit_label,
+            f"{p.bounds[0]:g} .. {p.bounds[1]:g}",
+            "log" if p.log else "linear",
+            p.equation or "-",
+        ]
+        for p in params
     ]
-    show = table[[c for c in cols if c in table and not table[c].isna().all()]]
-    return show.to_string(index=False, float_format=lambda v: f"{v:.4g}")
+    headers = ["parameter", "unit", "bounds", "scale", "thesis / source"]
+    table = _table_text(headers, rows, left=headers)
+    lines = [indent + table[0]]
+    for p, line in zip(params, table[1:]):
+        line = indent + line
+        lines.append(line if len(line) <= TEXT_WIDTH else line[: TEXT_WIDTH - 3] + "...")
+        lines += textwrap.wrap(
+            p.description or "(no description)",
+            TEXT_WIDTH,
+            initial_indent=indent + "    ",
+            subsequent_indent=indent + "    ",
+        )
+    return lines
+
+
+def _law_text(law, chains) -> str:
+    """``fitdf models LAW``: the law's title and equations, its parameters, the chains'."""
+    lines = textwrap.wrap(f"{law.name}: {law.title}", TEXT_WIDTH, subsequent_indent="  ")
+    lines += textwrap.wrap(
+        f"thesis equations: {law.equations}",
+        TEXT_WIDTH,
+        initial_indent="  ",
+        subsequent_indent="    ",
+    )
+    lines.append(
+        "  N depends on the frequency as well as the amplitude"
+        if law.frequency_dependent
+        else "  N depends on the amplitude only (rate-independent loop)"
+    )
+    lines += ["", "Parameters of the law (the core's flux linkage against winding current):"]
+    lines += _params_text(law.params)
+    lines += [
+        "",
+        "Measurement chains (fitdf fit --chain; their parameters are fitted with the law's):",
+    ]
+    for k, c in enumerate(chains):
+        default = " (default)" if c.name == DEFAULT_CHAIN else ""
+        lines += [""] if k else []
+        lines += textwrap.wrap(
+            f"{c.name}{default}: {c.title}", TEXT_WIDTH, subsequent_indent="    "
+        )
+        lines += _params_text(c.params, indent="    ") if c.params else ["    no parameters"]
+    note = (
+        f"unit {DIMENSIONLESS_UNIT}: dimensionless; scale log: the fits work with log10 of the "
+        "value. Bounds are the default box (the prior support); with a core's geometry a fit "
+        "narrows them to the material's physical limits."
+    )
+    lines += ["", *textwrap.wrap(note, TEXT_WIDTH)]
+    return "\n".join(lines)
+
+
+def _cell(value) -> str:
+    """A table cell: floats in four significant digits, NaN as ``n/a``."""
+    if isinstance(value, float):
+        return "n/a" if value != value else f"{value:.4g}"
+    return str(value)
+
+
+def _ranks_text(ranks) -> str:
+    """Sorted ranks, runs shortened: ``[2, 3, 4, 7]`` -> ``"2-4,7"``."""
+    runs, out = [], []
+    for r in sorted(set(ranks)):
+        if runs and r == runs[-1][1] + 1:
+            runs[-1][1] = r
+        else:
+            runs.append([r, r])
+    for lo, hi in runs:
+        out.append(str(lo) if lo == hi else f"{lo},{hi}" if hi == lo + 1 else f"{lo}-{hi}")
+    return ",".join(out)
+
+
+def _tie_ranks(table) -> list[str]:
+    """Per row of a ranking, the ranks of the rows it cannot be told apart from (its
+    ``indistinguishable_from``: models of the same method), e.g. ``"2-4,7"``."""
+    rank_of = {
+        (row["model"], row["chain"], row["method"]): int(row["rank"]) for _, row in table.iterrows()
+    }
+    out = []
+    for _, row in table.iterrows():
+        names = [n for n in str(row.get("indistinguishable_from") or "").split(", ") if n]
+        ranks = [rank_of.get((*n.rsplit("/", 1), row["method"])) for n in names]
+        out.append(_ranks_text(r for r in ranks if r is not None))
+    return out
+
+
+def _table_text(headers, rows, left=(), sep="  ") -> list[str]:
+    """Lines of a plain table: ``headers`` over ``rows`` (lists of str), columns named in
+    ``left`` aligned left, the others right."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
+    return [
+        sep.join(
+            c.ljust(w) if h in left else c.rjust(w) for c, w, h in zip(line, widths, headers)
+        ).rstrip()
+        for line in (headers, *rows)
+    ]
+
+
+def _ranking_text(table, rank_by: str = "rms_complex", wide: bool = False) -> str:
+    """The ranking as text: every column with ``wide``, else the columns a reader needs
+    first, no line longer than :data:`TEXT_WIDTH`, and a legend of those columns."""
+    if wide:
+        cols = [c for c in WIDE_COLUMNS if c in table and not table[c].isna().all()]
+        return table[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}")
+    cols = [
+        c
+        for c in BRIEF_COLUMNS
+        if c in table
+        and not table[c].isna().all()
+        and (c not in ("chain", "method") or table[c].nunique() > 1)
+    ]
+    if rank_by in table and rank_by not in cols:
+        cols.append(rank_by)
+    rows = [[_cell(row[c]) for c in cols] for _, row in table.iterrows()]
+    ties = _tie_ranks(table)
+    headers = [*cols, "ties"]
+    left = ("model", "chain", "method", "ties")
+    lines = _table_text(headers, [[*r, t] for r, t in zip(rows, ties)], left)
+    if max(map(len, lines)) > TEXT_WIDTH:  # several chains and methods: closer columns
+        lines = _table_text(headers, [[*r, t] for r, t in zip(rows, ties)], left, sep=" ")
+    if max(map(len, lines)) > TEXT_WIDTH:  # a long list of ties: cut, --wide has them all
+        room = TEXT_WIDTH - 1 - max(map(len, _table_text(cols, rows, left, sep=" ")))
+        room = max(room, len("ties"))
+        ties = [t if len(t) <= room else t[: room - 3] + "..." for t in ties]
+        lines = _table_text(headers, [[*r, t] for r, t in zip(rows, ties)], left, sep=" ")
+    methods = set(table["method"])
+    tie_rule = {
+        "lsq": "AICc within 2",
+        "mcmc": "elpd_loo within twice its standard error",
+    }
+    rule = "; ".join(f"{METHOD_NAMES[m]}: {tie_rule[m]}" for m in sorted(methods))
+    legend = [f"{c}: {COLUMN_MEANINGS[c]}" for c in cols if c in COLUMN_MEANINGS]
+    legend.append(f"ties: the ranks this row cannot be told apart from ({rule})")
+    legend.append("--wide prints every column")
+    text = "; ".join(legend) + "."
+    return "\n".join([*lines, "", *textwrap.wrap(text, TEXT_WIDTH)])
 
 
 def _check_models(models, known) -> None:
@@ -479,27 +672,48 @@ def _summary_text(rows) -> str:
 
 
 def _print_fit(comparison, args, *, brief: bool) -> None:
-    """The ranking; for a single dataset also the best fit, its material and MCMC checks."""
+    """The ranking; for a single dataset also the best fit, its material and MCMC checks.
+
+    Every line fits in :data:`TEXT_WIDTH` columns unless ``--wide``.
+    """
     table, results, best = comparison.table, comparison.results, comparison.best
+    wide = getattr(args, "wide", False)
     if brief:
         print()
+    how = []  # what every row shares (the default table leaves those columns out)
+    if table["chain"].nunique() == 1:
+        how.append(f"{table['chain'].iloc[0]} chain")
+    if table["method"].nunique() == 1:
+        how.append(METHOD_NAMES.get(table["method"].iloc[0], table["method"].iloc[0]))
     print(
         f"Ranking on {results[0].label} ({results[0].metrics['n_points']} rows, "
-        f"seed {args.seed}), ordered by {args.rank_by}:"
+        f"{', '.join([*how, f'seed {args.seed}'])}), ordered by {args.rank_by}:"
     )
-    print(_ranking_text(table))
+    print(_ranking_text(table, args.rank_by, wide=wide))
     if not brief:
         print("\nBest model:")
         print(best.summary())
         print(_material_text(best))
-    for r in results:
-        if r.method == "mcmc":
+    mcmc = [r for r in results if r.method == "mcmc"]
+    if mcmc:
+        print("\nMCMC checks (converged: 50 autocorrelation times, R-hat < 1.01, bulk ESS >= 400):")
+        rows = []
+        for r in mcmc:
             d = r.diagnostics
-            print(
-                f"MCMC {r.model}: {'converged' if d['converged'] else 'NOT converged'} "
-                f"(steps/tau {d['steps_over_tau']:.0f}, max R-hat {max(d['rhat'].values()):.3f}, "
-                f"min ESS {min(d['ess_bulk'].values()):.0f}, acceptance {d['acceptance_mean']:.2f})"
+            rows.append(
+                [
+                    r.model,
+                    r.chain,
+                    "yes" if d["converged"] else "NO",
+                    f"{d['steps_over_tau']:.0f}",
+                    f"{max(d['rhat'].values()):.3f}",
+                    f"{min(d['ess_bulk'].values()):.0f}",
+                    f"{d['acceptance_mean']:.2f}",
+                ]
             )
+        headers = ["model", "chain", "converged", "steps/tau", "max R-hat", "min ESS", "acceptance"]
+        for line in _table_text(headers, rows, left=("model", "chain", "converged")):
+            print("  " + line)
 
 
 def _material_text(result) -> str:
@@ -510,9 +724,10 @@ def _material_text(result) -> str:
     if not check:
         c = result.material["constants"]
         return (
-            f"  material: mu_i {c['initial_permeability']:.4g}, mu_max {c['maximum_permeability']:.4g}, "
-            f"H_c {c['coercive_force_oe']:.3g} Oe, B_p {c['peak_flux_density_gauss']:.4g} G, "
-            f"B_r/B_p {c['squareness']:.3g} (no catalogue ranges for this core)"
+            f"  material: mu_i {c['initial_permeability']:.4g}, "
+            f"mu_max {c['maximum_permeability']:.4g}, H_c {c['coercive_force_oe']:.3g} Oe,\n"
+            f"    B_p {c['peak_flux_density_gauss']:.4g} G, B_r/B_p {c['squareness']:.3g} "
+            "(no catalogue ranges for this core)"
         )
     lines = ["  material constants vs Appendix A:"]
     for row in check:
@@ -520,7 +735,7 @@ def _material_text(result) -> str:
         fitted = "n/a" if row["fitted"] is None else f"{row['fitted']:.4g}"
         mark = "inside" if row["inside"] else "OUTSIDE"
         lines.append(
-            f"    {row['quantity']:<24s} {fitted:>10s} {row['unit']:<13s} "
+            f"    {row['quantity']:<24s} {fitted:>10s} {row['unit'] or '-':<13s} "
             f"range {row['low']:.4g}..{high:<8s} {mark}"
         )
     return "\n".join(lines)
@@ -533,14 +748,24 @@ def cmd_report(args):
     cache = None if args.no_cache else job_cache(args.cache, settings, args.seed)
     # kept on ``args``: after Ctrl-C, the one line says what the cache kept
     args.job_caches = [] if cache is None else [cache]
-    out = generate_report(
-        out_dir=args.out,
-        seed=args.seed,
-        quick=args.quick,
-        progress=not args.quiet,
-        settings=settings,
-        cache=cache,
-    )
+    try:
+        out = generate_report(
+            out_dir=args.out,
+            seed=args.seed,
+            quick=args.quick,
+            progress=not args.quiet,
+            settings=settings,
+            cache=cache,
+        )
+    except OSError as exc:
+        # the folder passed the checks before the run, and writing it failed after (a full
+        # disk, the folder removed meanwhile): the user's to fix, the previous report kept
+        parent = str(Path(args.out).expanduser().resolve().parent)
+        if exc.filename is None or not str(exc.filename).startswith(parent):
+            raise
+        raise OptionError(
+            f"--out {args.out}: the report could not be written ({exc.strerror})"
+        ) from None
     print(f"report written to {out}/ (README.md, index.html, results.json, figures/)")
     return 0
 
@@ -581,11 +806,27 @@ def cmd_limit_cycle(args):
     return 0
 
 
+#: The legend under ``fitdf limit-cycle``'s table (:mod:`fitdf.loop.harmonic` for Loeb's
+#: criterion).
+LIMIT_CYCLE_LEGEND = (
+    "gain: the loop gain K; amplitude: peak of the sinusoid at the core's input (the plant's "
+    "output); omega, f: its frequency; stable: whether a slightly larger cycle decays back to it "
+    "(yes: the loop settles into this cycle) or grows away (no), by Loeb's criterion; loeb: that "
+    "criterion's value, the sine of the angle at which the plant locus G(jw) crosses the critical "
+    "locus -1/N(A, w), from -1 to 1: above 0 stable, below 0 unstable, near 0 a fragile verdict."
+)
+
+
 def format_limit_cycle_table(result: dict) -> str:
     """Plain-text table of a :class:`~fitdf.loop.fitted.FittedLimitCycles` record (``to_dict``)."""
-    lines = [
+    lines = textwrap.wrap(
         f"Limit cycles of {result['plant']} with the {result['model']} core "
-        f"({result['chain']} chain) fitted to {result['data']} at {result['source_impedance_ohm']:g} ohm",
+        f"({result['chain']} chain) fitted to {result['data']} at "
+        f"{result['source_impedance_ohm']:g} ohm",
+        TEXT_WIDTH,
+        subsequent_indent="  ",
+    )
+    lines += [
         f"amplitudes searched {result['amplitude_range'][0]:.3g}..{result['amplitude_range'][1]:.3g} V, "
         f"omega {result['omega_range'][0]:.3g}..{result['omega_range'][1]:.3g} rad/s",
         "",
@@ -603,6 +844,7 @@ def format_limit_cycle_table(result: dict) -> str:
                 f"{g:>10.4g} {c['amplitude']:>12.4g} {c['omega_rad_s']:>12.4g} {c['frequency_hz']:>8.3g} "
                 f"{'yes' if c['stable'] else 'no':>7s} {c['loeb']:>7.2f}"
             )
+    lines += ["", *textwrap.wrap(LIMIT_CYCLE_LEGEND, TEXT_WIDTH)]
     crit = result.get("critical_gain")
     point = result.get("critical_point", {})
     lines.append("")
@@ -616,9 +858,10 @@ def format_limit_cycle_table(result: dict) -> str:
             if unstable
             else "Oscillations die out below gain"
         )
-        lines.append(
+        lines += textwrap.wrap(
             f"{below} {crit:.4g}; the first cycle appears at "
-            f"A = {point.get('amplitude'):.3g} V, omega = {point.get('omega'):.3g} rad/s{where}."
+            f"A = {point.get('amplitude'):.3g} V, omega = {point.get('omega'):.3g} rad/s{where}.",
+            TEXT_WIDTH,
         )
     lines += [f"Warning: {w}." for w in result.get("warnings", ())]
     return "\n".join(lines)
@@ -637,16 +880,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
-    def add(name, func, help, examples):
+    def add(name, func, help, examples, notes="", json=True):
         sp = sub.add_parser(
             name,
             help=help,
             description=help,
             formatter_class=argparse.RawDescriptionHelpFormatter,
-            epilog="examples:\n" + "\n".join(f"  {e}" for e in examples),
+            epilog="examples:\n" + "\n".join(f"  {e}" for e in examples) + notes,
         )
         sp.set_defaults(func=func)
-        sp.add_argument("--json", action="store_true", help="print JSON on stdout instead of text")
+        if json:
+            sp.add_argument(
+                "--json", action="store_true", help="print JSON on stdout instead of text"
+            )
         sp.add_argument("--quiet", action="store_true", help="no progress bars")
         return sp
 
@@ -668,11 +914,19 @@ def build_parser() -> argparse.ArgumentParser:
         default="appendix_b",
         help="dataset, core or CSV path (default: all of Appendix B)",
     )
-    add(
+    sp = add(
         "models",
         cmd_models,
-        "list the candidate models with their parameters and equations",
-        ["fitdf models", "fitdf models --json"],
+        "list the candidate models (hysteresis laws), or explain one law",
+        ["fitdf models", "fitdf models preisach", "fitdf models --json"],
+    )
+    sp.add_argument(
+        "law",
+        nargs="?",
+        default=None,
+        metavar="LAW",
+        help="a law to explain: its equations, each parameter with unit, bounds and meaning, "
+        "and the measurement chains' parameters (default: list every law)",
     )
     sp = add(
         "fit",
@@ -685,12 +939,21 @@ def build_parser() -> argparse.ArgumentParser:
             "fitdf fit core1.csv core2.csv --method lsq   # a summary table after the rankings",
             "fitdf fit measurements/ --json               # every *.csv of the folder",
         ],
+        notes="\n\nCSV file: columns input_v (V peak), frequency_hz (Hz), df_reported (|DF|, V/V), "
+        "phase_lead_deg\n(degree, output leads input), optional source_impedance_ohm (ohm, default 0); "
+        "datasets/README.md",
     )
     sp.add_argument(
         "data",
         nargs="+",
-        help="core name (permalloy, deltamax, supermalloy), table (B.1..B.5), CSV path or a "
-        "folder of CSV files; several (or a folder) are ranked one by one, then summarised",
+        help="core name (permalloy, deltamax, supermalloy), table (B.1..B.5), CSV file (format "
+        "below) or a folder of CSV files; several (or a folder) are ranked one by one, then "
+        "summarised",
+    )
+    sp.add_argument(
+        "--wide",
+        action="store_true",
+        help="print every column of the ranking (default: the main ones, in 100 columns)",
     )
     sp.add_argument("--method", choices=METHOD_CHOICES, default="lsq")
     sp.add_argument("--models", nargs="+", metavar="MODEL", help="models to fit (default: all)")
@@ -737,8 +1000,10 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument(
         "--policy",
         default="default",
-        choices=["default", "all", "strict"],
-        help="which audited rows to use (datasets/README.md)",
+        choices=["default", "as_printed", "all", "strict"],
+        help="which audited rows to use: 'default' drops untrustworthy rows and takes a column "
+        "the audit finds printed in reverse order reversed, 'as_printed' keeps the printed "
+        "order, 'all' every row, 'strict' only unflagged rows (datasets/README.md)",
     )
     sp.add_argument(
         "--no-cv", action="store_true", help="skip the leave-one-frequency-out cross-validation"
@@ -763,6 +1028,9 @@ def build_parser() -> argparse.ArgumentParser:
         cmd_report,
         "fit every model to every core and write the comparison report",
         ["fitdf report", "fitdf report --out /tmp/myreport --seed 3", "fitdf report --quick"],
+        notes="\n\nThe report prints no JSON: its machine-readable output is results.json in the\n"
+        "output folder (schemas/results.schema.json), beside README.md, index.html and figures/.",
+        json=False,
     )
     sp.add_argument(
         "--out", default="reports", metavar="DIR", help="output folder (default: reports)"
@@ -825,7 +1093,11 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--chain", default=DEFAULT_CHAIN, choices=CHAIN_CHOICES)
     sp.add_argument("--seed", type=seed_value, default=0, help=SEED_HELP)
     sp.add_argument(
-        "--plot", default=None, metavar="FILE.png", help="write the Nyquist-plane figure"
+        "--plot",
+        default=None,
+        metavar="FILE.png",
+        help="write the Nyquist-plane figure: the loci framed where they meet (the cycles, "
+        "else the first cycle at the critical gain), beside a panel of the whole loci",
     )
     return p
 

@@ -24,7 +24,11 @@ __all__ = [
     "table_parameter",
     "parameter_base",
     "calibration_gain",
+    "DIMENSIONLESS",
 ]
+
+#: How a dimensionless parameter's unit is printed (its ``unit`` is ``""`` or ``"1"``).
+DIMENSIONLESS = "-"
 
 #: Winding-unit quantities as ``(p, q)``: value = material value x (N A_e)^p x (l_e / N)^q,
 #: i.e. the powers of flux linkage per induction and of current per field they carry.
@@ -36,6 +40,11 @@ QUANTITIES = {
     "per_current_squared": (0, -2),
     "current_per_hz": (0, 1),
     "current_per_hz2": (0, 1),
+    # Bertotti's dynamic fields (fitdf.chains.dynamic): H = k_cl dB/dt is the winding
+    # current c_cl e, c_cl = k_cl l_e / (N^2 A_e); H = k_ex |dB/dt|^(1/2) is
+    # c_ex |e|^(1/2), c_ex = k_ex (l_e / N) (N A_e)^(-1/2)
+    "conductance": (-1, 1),
+    "current_per_root_voltage": (-0.5, 1),
 }
 
 #: Chain parameters a joint fit gives one copy per table, named ``gain[B.1]``: the
@@ -57,7 +66,8 @@ class ParamSpec:
         Finite ``(lower, upper)``; the prior support of MCMC and the box of the
         global least-squares stage.
     unit : str
-        Unit in the winding measurement chain (input in ampere, output in volt-second).
+        Unit in the winding measurement chain (input in ampere, output in volt-second);
+        ``""`` or ``"1"`` for a pure number (printed as :data:`DIMENSIONLESS`).
     description : str
         What the parameter means physically.
     equation : str
@@ -103,6 +113,11 @@ class ParamSpec:
     def from_internal(self, internal):
         """Inverse of :meth:`to_internal`."""
         return 10.0 ** np.asarray(internal) if self.log else np.asarray(internal, dtype=float)
+
+    @property
+    def unit_label(self) -> str:
+        """The unit as printed: :data:`DIMENSIONLESS` (``"-"``) for a pure number."""
+        return DIMENSIONLESS if self.unit.strip() in ("", "1") else self.unit
 
     @property
     def internal_bounds(self) -> tuple[float, float]:

@@ -32,12 +32,16 @@ def run(*args, timeout=600):
 
 
 def run_here(*args):
-    """:func:`fitdf.cli.main` on ``args`` in this process, as ``run`` would report it."""
+    """:func:`fitdf.cli.main` on ``args`` in this process, as ``run`` would report it
+    (``--help`` included: argparse ends it by ``SystemExit``)."""
     from fitdf.cli import main
 
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(list(args))
+        try:
+            code = main(list(args))
+        except SystemExit as exc:
+            code = exc.code
     return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 
@@ -109,19 +113,182 @@ def test_models_lists_every_model_with_equations():
 ONE_PROCESS = ("--workers", "1")
 
 
+#: The longest line ``fitdf fit`` prints by default (``--wide``: every column).
+WIDTH = 100
+
+
+def assert_fits_in_100_columns(text: str) -> None:
+    long = [line for line in text.splitlines() if len(line) > WIDTH]
+    assert not long, "\n".join(long)
+
+
+def parameter_lines(text: str) -> dict:
+    """``{name: (value line, meaning)}`` of the best model's parameters in ``fitdf fit``'s
+    text: a line of name, value, unit and interval, then indented lines of what it means."""
+    lines = text.split("Best model:")[1].splitlines()
+    head = next(i for i, line in enumerate(lines) if line.split()[:2] == ["parameter", "value"])
+    out, name = {}, None
+    for line in lines[head + 1 :]:
+        if line.startswith("      ") and name is not None:  # (a meaning may wrap)
+            out[name] = (out[name][0], f"{out[name][1]} {line.strip()}".strip())
+        elif line.startswith("  ") and not line.startswith(("   ", "  (", "  warning:")):
+            name = line.split()[0]
+            out[name] = (line, "")
+        else:
+            break
+    return out
+
+
 def test_fit_prints_ranking_and_json():
-    fit_b3 = ("fit", "B.3", "--models", "constant_width", "rayleigh", "--chain", "winding")
-    fit_b3 += ("--no-cv", *ONE_PROCESS)
+    fit_b3 = ("fit", "B.3", "--models", "constant_width", "proportional_width")
+    fit_b3 += ("proportional_width_fig42", "--chain", "winding", "--no-cv", *ONE_PROCESS)
     # through the cheap winding chain (12 s less a run on 2 cores; neither the text nor the
     # JSON depends on the chain): the default chain's JSON is test_json_schemas.py's fit-B.1
     p = run(*fit_b3, "--quiet")
     assert p.returncode == 0, p.stderr
-    assert "Ranking on B.3" in p.stdout and "Best model" in p.stdout
+    assert "Ranking on B.3 (36 rows, winding chain, least squares, seed 0)" in p.stdout
+    assert_fits_in_100_columns(p.stdout)
+    ranking = p.stdout.split("\n\n")[0].splitlines()[1:]
+    assert ranking[0].split() == ["rank", "model", "n_params", "rms_complex", "aicc", "ties"]
+    rows = {r.split()[1]: r.split() for r in ranking[1:]}
+    # the two proportional-width laws cannot be told apart (AICc within 2): each names the other
+    pw, fig42 = rows["proportional_width"], rows["proportional_width_fig42"]
+    assert pw[-1] == fig42[0] and fig42[-1] == pw[0]
+    words = " ".join(p.stdout.split())  # (the legend is wrapped)
+    assert "ties: the ranks this row cannot be told apart from" in words
+    assert "(least squares: AICc within 2)" in words and "--wide prints every column" in words
+    # the best model's parameters: unit (- for a pure number) and what each means
+    params = parameter_lines(p.stdout)
+    assert set(params) >= {"k", "c", "r_winding", "gain"}
+    units = {name: line.split()[2] for name, (line, _) in params.items()}
+    assert units["k"] == "H" and units["r_winding"] == "ohm" and units["gain"] == "-"
+    assert (
+        "calibration gain" in params["gain"][1] and "winding resistance" in params["r_winding"][1]
+    )
+    assert "(unit -: dimensionless)" in p.stdout
+    wide = run(*fit_b3, "--quiet", "--wide")
+    assert wide.returncode == 0, wide.stderr
+    header = wide.stdout.splitlines()[1].split()
+    assert {"chain", "method", "rms_phase_deg", "bic", "indistinguishable_from"} <= set(header)
+    assert "proportional_width_fig42/winding" in wide.stdout
     j = json.loads(run_here(*fit_b3, "--json").stdout)  # (in this process: ~4 s of start-up less)
-    assert [r["rank"] for r in j["ranking"]] == [1, 2]
-    assert {f["model"] for f in j["fits"]} == {"constant_width", "rayleigh"}
+    assert [r["rank"] for r in j["ranking"]] == [1, 2, 3]
+    assert {f["model"] for f in j["fits"]} == {
+        "constant_width",
+        "proportional_width",
+        "proportional_width_fig42",
+    }
     for f in j["fits"]:
         assert f["metrics"]["rms_complex"] > 0 and f["parameters"]
+
+
+@pytest.mark.slow  # 30 s of fitting on 2 cores (the cheaper test above runs by default)
+def test_the_default_fit_output_fits_in_100_columns(tmp_path):
+    """``fitdf fit B.3 --method lsq --no-cv`` as a user types it: every line within 100
+    columns, every parameter of the best law with its unit and meaning."""
+    p = run("fit", "B.3", "--method", "lsq", "--no-cv", "--cache", str(tmp_path))
+    assert p.returncode == 0, p.stderr
+    assert_fits_in_100_columns(p.stdout)
+    params = parameter_lines(p.stdout)
+    assert {"i_c", "l_rev", "f_rev"} <= set(params)  # (the best law on B.3: the Preisach model)
+    for name, (line, meaning) in params.items():
+        assert line.split()[2] != "1", line  # a pure number's unit is "-"
+        assert len(meaning.split()) >= 3, (name, meaning)
+    assert "coercive-current" in params["i_c"][1]
+    assert "reversible" in params["l_rev"][1] and "reversible" in params["f_rev"][1]
+
+
+def test_the_default_ranking_stays_within_100_columns():
+    """Three chains and both methods, long lists of ties: the columns that vary are shown,
+    the table stays within 100 columns, a cut list of ties says so."""
+    import pandas as pd
+
+    from fitdf.cli import _ranking_text
+
+    models = ["proportional_width_fig42", "jiles_atherton", "preisach", "cubic_hc"]
+    rows = []
+    for model in models:
+        for chain in ("direct", "winding", "voltage"):
+            for method in ("lsq", "mcmc"):
+                rows.append(
+                    {
+                        "model": model,
+                        "chain": chain,
+                        "method": method,
+                        "n_params": 9,
+                        "rms_complex": 0.123456,
+                        "aicc": -1234.5678,
+                        "cv_rms_complex": 0.2345678,
+                        "looic": 1234.5,
+                        "bic": 1.0,
+                    }
+                )
+    table = pd.DataFrame(rows)
+    table.insert(0, "rank", range(1, len(table) + 1))
+    every = [f"{r['model']}/{r['chain']}" for r in rows]
+    table["indistinguishable_from"] = [
+        ", ".join(n for n in every[::2] if n != f"{r['model']}/{r['chain']}") for r in rows
+    ]
+    text = _ranking_text(table, "looic")
+    assert_fits_in_100_columns(text)
+    header = text.splitlines()[0].split()
+    assert header == [
+        "rank",
+        "model",
+        "chain",
+        "method",
+        "n_params",
+        "rms_complex",
+        "aicc",
+        "cv_rms_complex",
+        "looic",
+        "ties",
+    ]
+    assert "..." in text
+    assert "least squares: AICc within 2; MCMC: elpd_loo" in " ".join(text.split())
+    wide = _ranking_text(table, "looic", wide=True)
+    assert "indistinguishable_from" in wide and max(map(len, wide.splitlines())) > WIDTH
+
+
+def test_models_explains_one_law():
+    p = run_here("models", "preisach")
+    assert p.returncode == 0, p.stderr
+    assert_fits_in_100_columns(p.stdout)
+    text = p.stdout
+    assert text.startswith("preisach: Preisach model")
+    assert "thesis equations:" in text and "eqs 3.1, 3.7" in text
+    lines = text.splitlines()
+    for name, unit, bounds in (("i_c", "A", "1e-07 .. 0.1"), ("l_rev", "H", "0.01 .. 10000")):
+        (row,) = [line for line in lines if line.split()[:1] == [name]]
+        assert row.split()[1] == unit and bounds in row
+        meaning = lines[lines.index(row) + 1]
+        assert meaning.startswith("      ") and len(meaning.split()) > 3
+    assert [line for line in lines if line.split()[:2] == ["f_rev", "-"]]  # dimensionless
+    for chain in ("direct:", "winding:", "voltage (default):"):
+        assert any(line.startswith(chain) for line in lines), chain
+    assert [line for line in lines if line.split()[:2] == ["r_winding", "ohm"]]
+    listing = run_here("models")
+    assert listing.returncode == 0 and "jiles_atherton:" in listing.stdout
+    assert "fitdf models LAW" in listing.stdout
+
+
+def test_models_of_an_unknown_law_is_a_user_error():
+    p = run_here("models", "bogus")
+    assert_user_error(p, "unknown law 'bogus'", "preisach", "constant_width")
+
+
+def test_report_has_no_json_option():
+    """The report's machine-readable output is its results.json; it prints no JSON."""
+    assert_user_error(run_here("report", "--json"), "--json")
+    h = run_here("report", "--help")
+    assert "--json" not in h.stdout and "results.json" in h.stdout
+
+
+def test_fit_help_points_to_the_csv_format():
+    h = run_here("fit", "--help")
+    for column in ("input_v", "frequency_hz", "df_reported", "phase_lead_deg"):
+        assert column in h.stdout
+    assert "source_impedance_ohm" in h.stdout and "datasets/README.md" in h.stdout
 
 
 @pytest.mark.parametrize(
@@ -325,6 +492,21 @@ def test_report_out_must_be_a_usable_folder(tmp_path):
             assert_user_error(run("report", "--out", str(locked / "r")), "--out", "permission")
         finally:
             locked.chmod(0o700)
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="no /proc file system here")
+def test_report_out_that_cannot_be_written_whatever_the_reason(tmp_path, monkeypatch):
+    """Permissions pass but the folder cannot be made (a virtual file system, root or not):
+    one line and exit 2 before anything runs; and a write that fails after the run the same."""
+    assert_user_error(run_here("report", "--out", "/proc/fitdf-report"), "--out", "/proc")
+    import fitdf.report.build as build
+
+    def full_disk(out_dir, **kw):
+        raise OSError(28, "No space left on device", str(Path(out_dir).resolve() / "x.png"))
+
+    monkeypatch.setattr(build, "generate_report", full_disk)
+    out = tmp_path / "r"
+    assert_user_error(run_here("report", "--out", str(out), "--no-cache"), "--out", "No space")
 
 
 def test_limit_cycle_warns_of_an_unstable_plant(tmp_path):

@@ -23,6 +23,7 @@ from fitdf import cli
 from fitdf.chains import chain_names
 from fitdf.inference.api import DEFAULT_CHAIN
 from fitdf.inference.ranking import METHOD_CHOICES, RANK_COLUMNS
+from fitdf.params import DIMENSIONLESS
 
 HEAVY = ("numpy", "scipy", "pandas", "matplotlib", "numba", "lmfit", "emcee", "arviz", "control")
 SUBCOMMANDS = ("datasets", "audit", "models", "fit", "report", "limit-cycle")
@@ -117,6 +118,7 @@ def test_python_dash_m_fitdf_prints_the_version():
 
 
 def test_parser_choices_are_the_librarys():
+    assert cli.DIMENSIONLESS_UNIT == DIMENSIONLESS
     assert sorted(cli.CHAIN_CHOICES) == sorted(chain_names())
     assert cli.DEFAULT_CHAIN == DEFAULT_CHAIN
     assert tuple(cli.METHOD_CHOICES) == tuple(METHOD_CHOICES)

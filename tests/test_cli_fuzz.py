@@ -210,8 +210,8 @@ LIMIT_CYCLE = {
     "--seed": choice_or_junk(["0", "7"]),
     "--plot": junk,
 }
-REPORT = {
-    **COMMON,
+REPORT = {  # (no --json: the report prints none, results.json is its machine-readable output)
+    "--quiet": None,
     "--seed": junk,
     "--quick": None,
     "--scheduler": junk,
@@ -263,6 +263,8 @@ def test_audit_datasets_models_random_options(bad_paths, data):
     argv = [command]
     if command == "audit":
         argv.append(data.draw(st.one_of(st.sampled_from([*bad_paths["data"], "B.1"]), junk)))
+    if command == "models":  # a law to explain, or none
+        argv += data.draw(st.lists(choice_or_junk(["preisach", "cubic_hc"]), max_size=1))
     argv += data.draw(st.lists(st.one_of(st.sampled_from(["--json", "--quiet"]), junk), max_size=2))
     check(argv)
 

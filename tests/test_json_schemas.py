@@ -44,6 +44,7 @@ COMMANDS = [
     ("audit-B.1", "fitdf-audit.schema.json", ["audit", "B.1", "--json"]),
     ("audit-csv", "fitdf-audit.schema.json", ["audit", "{csv}", "--json"]),
     ("models", "fitdf-models.schema.json", ["models", "--json"]),
+    ("models-law", "fitdf-models.schema.json", ["models", "preisach", "--json"]),
     (
         "fit-B.1",
         "fitdf-fit.schema.json",
@@ -237,6 +238,9 @@ def test_cli_json_matches_schema(cli_outputs, case, schema):
     if case == "fit-batch":  # the folder's one CSV, then the same file named directly
         assert [f["data"] for f in out["files"]] == [r["data"] for r in out["summary"]]
         assert len(out["files"]) == 2 and out["files"][0]["data"].endswith("mycore.csv")
+    if case == "models-law":  # the law asked for, and every chain
+        assert [m["name"] for m in out["models"]] == ["preisach"]
+        assert {c["name"] for c in out["chains"]} >= {"direct", "winding", "voltage"}
     if case == "limit-cycle":  # an ordinary plant: nothing to warn about
         assert out["warnings"] == []
 

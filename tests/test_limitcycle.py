@@ -2,18 +2,28 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.optimize import brentq
+from synthetic import synthetic_frame
 
-from fitdf.cli import format_limit_cycle_table
+from fitdf.cli import format_limit_cycle_table, main
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit
+from fitdf.loop import harmonic
 from fitdf.loop.fitted import fitted_limit_cycles
-from fitdf.loop.harmonic import critical_gain, limit_cycles
+from fitdf.loop.harmonic import (
+    DEDUP_TOL,
+    ROOT_TOL,
+    _distinct_roots,
+    critical_gain,
+    limit_cycles,
+)
 from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
 from fitdf.loop.plant import as_loop_plant
 from fitdf.plots.limit_cycles import plot_nyquist, plot_thesis_comparison
@@ -195,6 +205,76 @@ def test_response_table_json_and_plot():
     assert ax.get_xlabel() == "Re" and len(ax.lines) >= 4
 
 
+def test_nyquist_figure_is_framed_where_the_loci_meet():
+    """The framed panel holds every cycle with a margin, far closer than the whole loci (the
+    second panel, with the framed region outlined); without a cycle, the first one (at the
+    critical gain) is framed and its plant locus drawn."""
+    r = limit_cycles(PLANT, dead_zone_relay(), gains=[9.0], amplitude_range=(0.3, 30))
+    fig = plot_nyquist(r)
+    framed, whole = fig.axes[:2]
+    (x0, x1), (y0, y1) = framed.get_xlim(), framed.get_ylim()
+    for c in r.intersections:
+        assert x0 < c.G.real < x1 and y0 < c.G.imag < y1
+        margin = min(c.G.real - x0, x1 - c.G.real, c.G.imag - y0, y1 - c.G.imag)
+        assert margin > 0.1 * abs(c.G)
+    (wx0, wx1), (wy0, wy1) = whole.get_xlim(), whole.get_ylim()
+    assert (wx1 - wx0) > 5 * (x1 - x0) and (wy1 - wy0) > 5 * (y1 - y0)
+    assert len(whole.patches) == 1  # the framed region
+    labels = framed.get_legend_handles_labels()[1]
+    assert "stable cycle (Loeb)" in labels and "unstable cycle (Loeb)" in labels
+    none = limit_cycles(PLANT, dead_zone_relay(), gains=[3.0], amplitude_range=(0.3, 30))
+    assert none.intersections == ()
+    framed = plot_nyquist(none).axes[0]
+    labels = framed.get_legend_handles_labels()[1]
+    assert "first cycle" in labels and any("(critical gain)" in t for t in labels)
+    Gc = -1 / dead_zone_relay()(np.sqrt(2) * 0.5, np.sqrt(2))  # N's peak, on -1/N
+    (x0, x1), (y0, y1) = framed.get_xlim(), framed.get_ylim()
+    assert x0 < Gc.real < x1 and y0 < Gc.imag < y1 and x1 - x0 < 3.0
+
+
+def test_thesis_comparison_figure_explains_every_element():
+    """Every kind of mark has a legend entry, and the title says what alpha and beta are."""
+    rows = []
+    for rs, table in ((0.0, "B.1"), (600.0, "B.3")):
+        for K, dies in ((50.0, True), (100.0, False), (300.0, False)):
+            rows.append(
+                {
+                    "core": "permalloy",
+                    "source_impedance_ohm": rs,
+                    "table": table,
+                    "model": "preisach",
+                    "system_gain": K,
+                    "amplitude_v": 0.4 if dies else K / 100,
+                    "omega_rad_s": 9.0 if dies else 10 + K / 50,
+                    "dies_out": dies,
+                    "amplitude_pred": K / 90,
+                    "omega_pred": 10 + K / 45,
+                    "critical_gain_pred": 30.0,
+                    "amplitude_sim": K / 95,
+                    "omega_sim": 10 + K / 48,
+                }
+            )
+    df = pd.DataFrame(rows)
+    df.attrs.update(alpha=2.2, beta=0.675, scales={"joint": {"alpha": 2.2, "beta": 0.675}})
+    fig = plot_thesis_comparison(df)
+    title = " ".join(fig.get_suptitle().split())
+    assert "\u03b1 = 2.2: the computer's time scale" in title
+    assert "\u03b2 = 0.675: the scale of its system gain K" in title
+    assert "estimated from the tables" in title
+    labels = [t.get_text() for t in fig.axes[1].get_legend().get_texts()]
+    for rs in ("0", "600"):
+        for what in (
+            f"measured, {rs} ohm",
+            f"predicted largest stable cycle, {rs} ohm",
+            f"simulated loop, {rs} ohm",
+            f'printed in a row marked "oscillations die out", {rs} ohm',
+            f"predicted gain below which no cycle exists, {rs} ohm",
+        ):
+            assert any(label.startswith(what) for label in labels), (what, labels)
+    drawn = sum(len(ax.lines) for ax in fig.axes)
+    assert drawn == 2 * 2 * 5  # (two rows, two blocks, five kinds: each in the legend)
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [
@@ -293,6 +373,12 @@ def test_fitted_core_in_the_thesis_loop(b1_fit):
         }
     )
     assert "die out below gain" in text
+    # every column is explained under the table, Loeb's sign too
+    legend = " ".join(text.split("\n\n")[2].split())
+    for column in ("gain:", "amplitude:", "omega, f:", "stable:", "loeb:"):
+        assert column in legend
+    assert "above 0 stable, below 0 unstable" in legend
+    assert max(map(len, text.splitlines()[:-1])) <= 100
 
 
 @pytest.mark.slow  # 12 s; the fitted core cycles of the other tests here run by default
@@ -353,26 +439,224 @@ def test_loeb_of_a_fitted_core_is_the_slope_of_a_plane_through_the_balance(b1_fi
         assert c.stable and c.loeb == pytest.approx(expected, abs=0.015), (c.gain, c.loeb)
 
 
-def test_fitted_limit_cycles_are_json_ready(tmp_path):
-    found = fitted_limit_cycles(
-        "B.1",
-        THESIS_PLANT,
-        [100.0, 400.0],
-        None,
-        model="constant_width",
-        seed=0,
-        time_scale=2.5,
-        amplitude_range=(0.02, 10),
-        n_starts=2,
+# ------------------------------------------------------------------ the command's path, checked
+#: The loop of the command-line checks: the thesis plant, ``G0(j omega)`` written out below.
+CLI_PLANT = "K/((1+s)(1+0.25s)(1+1.1s))"
+
+
+def _g0(w):
+    return 1.0 / ((1 + 1j * w) * (1 + 0.25j * w) * (1 + 1.1j * w))
+
+
+def backlash_df(X, k, b, c, n=200_001):
+    """The DF of the clipped backlash (constant_width's loop: slope ``k``, half-width ``b``,
+    saturation ``c``) at amplitude ``X``, by Fourier integration of the loop over one period
+    (not the thesis's closed form the law evaluates). Trapezoid rule, periodic integrand with
+    kinks: error ~1e-9 at this ``n``."""
+    theta = np.linspace(-np.pi / 2, 3 * np.pi / 2, n)  # rising branch, then falling
+    x = X * np.sin(theta)
+    bottom = -min(c, k * max(X - b, 0.0))
+
+    def rising(u):
+        return np.clip(k * (u - b), bottom, c)
+
+    y = np.where(theta <= np.pi / 2, rising(x), -rising(-x))
+    in_phase = np.trapezoid(y * np.sin(theta), theta) / np.pi
+    quadrature = np.trapezoid(y * np.cos(theta), theta) / np.pi
+    return (in_phase + 1j * quadrature) / X
+
+
+def backlash_cycles(K, values, box):
+    """The cycles of ``K G0`` closed around the ``direct`` chain's clipped backlash
+    (``values``: its fitted ``k``, ``b``, ``c``, ``input_scale``), found without the solver:
+    ``N`` does not depend on ``omega``, so for each amplitude the phase balance
+    ``arg G0(j omega) = -pi - arg N(A)`` fixes ``omega`` (``arg G0`` falls monotonically from
+    0 to -3 pi / 2), and the cycles are where ``K |G0| |N|`` crosses 1 along that curve.
+    Returns ``(A, omega, stable)`` per cycle: stable when ``K |G0 N|`` falls through 1 as
+    ``A`` grows (a larger cycle decays back), and the balance's residual function."""
+    k, b, c, s = (values[n] for n in ("k", "b", "c", "input_scale"))
+
+    def N(A):  # the direct chain: the law's DF at model input A / input_scale
+        return backlash_df(A / s, k, b, c)
+
+    def omega_at(A):
+        target = -np.pi - np.angle(N(A))
+        return brentq(
+            lambda w: -(np.arctan(w) + np.arctan(0.25 * w) + np.arctan(1.1 * w)) - target,
+            1e-6,
+            1e6,
+            xtol=1e-14,
+            rtol=1e-14,
+        )
+
+    def log_gain(A):
+        return np.log(K * abs(_g0(omega_at(A))) * abs(N(A)))
+
+    grid = np.geomspace(*box, 80)
+    g = np.array([log_gain(a) for a in grid])
+    cycles = []
+    for i in np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:])):
+        A = brentq(log_gain, grid[i], grid[i + 1], xtol=1e-14, rtol=1e-13)
+        cycles.append((A, omega_at(A), bool(g[i] > 0 > g[i + 1])))
+
+    def residual(u, v):  # the solver's [ln|G N|, arg(-G N)], computed here
+        H = K * _g0(np.exp(v)) * N(np.exp(u))
+        return np.array([np.log(abs(H)), np.angle(-H)])
+
+    return cycles, residual
+
+
+def solver_tolerance(residual, A, w, h=1e-5):
+    """How far in ``ln A`` and ``ln omega`` a root the solver accepts can lie from the true
+    one: it accepts ``|r|_1 <= ROOT_TOL`` (:data:`fitdf.loop.harmonic.ROOT_TOL`), and to
+    first order ``dx = J^-1 dr``, so ``|dx_i| <= max_j |J^-1_ij| ROOT_TOL`` (J: the
+    residual's Jacobian at the true root, by central differences)."""
+    u, v = np.log(A), np.log(w)
+    J = np.column_stack(
+        [
+            (residual(u + h, v) - residual(u - h, v)) / (2 * h),
+            (residual(u, v + h) - residual(u, v - h)) / (2 * h),
+        ]
     )
-    plot_nyquist(found.response).savefig(tmp_path / "loci.png")
-    assert (tmp_path / "loci.png").stat().st_size > 0
-    out = found.to_dict()
-    json.dumps(out, allow_nan=False)
-    assert out["model"] == "constant_width" and out["gains"] == [100.0, 400.0]
-    assert out["source_impedance_ohm"] == 0.0  # B.1's only impedance
-    text = format_limit_cycle_table(out)
-    assert text.count("\n") >= 5 and "constant_width" in text
+    return np.max(np.abs(np.linalg.inv(J)), axis=1) * ROOT_TOL
+
+
+def test_limit_cycles_of_the_command_match_an_independent_balance(tmp_path):
+    """``fitdf limit-cycle`` end to end (parsing, fit, harmonic balance, JSON and table) on a
+    core whose cycles can be found another way: rows of a clipped backlash (constant_width
+    through the direct chain) fitted by the command, then the cycles of the loop closed
+    around the *fitted* parameters it prints, by a 1-D search along the phase balance with
+    the DF integrated numerically. Amplitude and frequency of every cycle must agree within
+    what the solver's tolerance allows (a relative 1e-4 or so: a 1% error fails), the
+    stability verdict too, and no cycle may be missing or printed twice."""
+    truth = {"k": 2.0, "b": 0.05, "c": 0.5, "input_scale": 4.0}
+    frame = synthetic_frame(
+        "constant_width",
+        truth,
+        chain="direct",
+        source_impedances=(0.0,),
+        amplitudes=np.geomspace(0.25, 10.0, 14),
+        sigma_magnitude=0.0,
+        sigma_phase_deg=0.0,
+    )
+    csv = tmp_path / "backlash.csv"
+    frame.to_csv(csv, index=False)
+    gains = [5.0, 8.0, 15.0]
+    argv = ["limit-cycle", str(csv), "--plant", CLI_PLANT, "--gain", *map(str, gains)]
+    argv += ["--model", "constant_width", "--chain", "direct"]
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main([*argv, "--json"]) == 0
+    record = json.loads(out.getvalue())
+    box = record["amplitude_range"]
+    assert box == [0.25, 10.0]  # the rows' amplitudes
+    printed = {g: [c for c in record["intersections"] if c["gain"] == g] for g in gains}
+    n_checked = 0
+    for K in gains:
+        expected, residual = backlash_cycles(K, record["parameters"], box)
+        assert len(printed[K]) == len(expected), (K, printed[K], expected)
+        for c, (A, w, stable) in zip(printed[K], expected):
+            tol_u, tol_v = solver_tolerance(residual, A, w)
+            assert max(tol_u, tol_v) < 2e-3  # the check can see a 1% error
+            assert abs(np.log(c["amplitude"] / A)) <= tol_u, (K, c["amplitude"], A, tol_u)
+            assert abs(np.log(c["omega_rad_s"] / w)) <= tol_v, (K, c["omega_rad_s"], w, tol_v)
+            assert c["frequency_hz"] == pytest.approx(c["omega_rad_s"] / (2 * np.pi), rel=1e-12)
+            assert c["stable"] == stable and (c["loeb"] > 0) == stable
+            n_checked += 1
+    assert n_checked >= 4  # both cycles at the lowest gain, one stable cycle at the others
+    # the table prints the same cycles, one line each
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(argv) == 0
+    rows = [line.split() for line in out.getvalue().splitlines()]
+    rows = [r for r in rows if len(r) == 6 and r[4] in ("yes", "no")]
+    assert len(rows) == len(record["intersections"])
+    for r, c in zip(rows, record["intersections"]):
+        assert float(r[0]) == c["gain"]
+        assert float(r[1]) == pytest.approx(c["amplitude"], rel=1e-3)
+        assert float(r[2]) == pytest.approx(c["omega_rad_s"], rel=1e-3)
+
+
+def test_a_cycle_reached_from_two_starts_is_printed_once(monkeypatch):
+    """B.3 (preisach, 600 ohm) in the thesis plant at gain 300: two starts of the refinement
+    reach each of its two cycles. A fitted core's DF jitters by ~1e-5 between points a hair
+    apart (the exact circuit's tolerance), so, depending on the build, the two starts stop
+    up to ~1e-5 apart in ``ln A`` and ``ln omega``: the case where one cycle was printed
+    twice. The refinement's results are moved apart by that much here, on every build: one
+    row per cycle must remain, within :data:`ROOT_TOL` of where it is without the shift."""
+    refine = harmonic._refine
+    accepted = []
+
+    def jittered(plant, N, gains, x0, bounds):
+        x, res = refine(plant, N, gains, x0, bounds)
+        accepted.append(int(np.sum(res <= ROOT_TOL)))
+        return x + 1e-5 * (np.arange(len(x)) % 2)[:, None], res
+
+    argv = ["limit-cycle", "B.3", "--plant", CLI_PLANT, "--gain", "300", "--model", "preisach"]
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main([*argv, "--json"]) == 0
+    plain = json.loads(out.getvalue())["intersections"]
+    monkeypatch.setattr(harmonic, "_refine", jittered)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main([*argv, "--json"]) == 0
+    shifted = json.loads(out.getvalue())["intersections"]
+    assert [c["stable"] for c in plain] == [False, True]  # a small unstable, a large stable one
+    assert accepted[0] > len(plain)  # (not vacuous: some cycle was reached from two starts)
+    assert len(shifted) == len(plain)
+    for a, b in zip(plain, shifted):
+        assert abs(np.log(a["amplitude"] / b["amplitude"])) < ROOT_TOL
+        assert abs(np.log(a["omega_rad_s"] / b["omega_rad_s"])) < ROOT_TOL
+
+
+def test_distinct_roots_merge_within_the_solvers_tolerance():
+    """Rows ``(ln A, ln omega)`` of refined starts: one row per cycle of each gain, the
+    smallest residual kept; a root that missed :data:`ROOT_TOL` is none."""
+    u, v = np.log(1.408), np.log(12.19)
+    x = np.array(
+        [
+            [u, v],
+            [u + 1e-5, v - 1e-5],  # the same cycle, reached from another start
+            [u + 0.3, v + 0.1],  # another cycle of that gain
+            [u, v],  # the same place at another gain: another cycle
+            [u + 0.5 * DEDUP_TOL, v],  # and again there
+            [u - 0.2, v],  # not a root
+        ]
+    )
+    res = np.array([3e-6, 1e-15, 1e-12, 1e-12, 2e-12, 2 * ROOT_TOL])
+    owner = np.array([0, 0, 0, 1, 1, 0])
+    assert list(_distinct_roots(x, res, owner)) == [1, 2, 3]
+    assert DEDUP_TOL == ROOT_TOL
+
+
+def jittery_relay(M=1.0, h=0.1, jitter=2e-5):
+    """The relay with hysteresis, its DF jittering by ``jitter`` (relative) from point to
+    point as a fitted core's does (the exact circuit's tolerance): refined from two starts, one
+    cycle stops at two places ~1e-5 apart."""
+    exact = relay(M, h)
+
+    def N(A, w):
+        u, v = np.log(np.asarray(A, float)), np.log(np.asarray(w, float))
+        noise = np.sin(1e7 * u + 3e7 * v) + 1j * np.cos(2e7 * u - 1e7 * v)
+        return exact(A, w) * (1 + jitter * noise)
+
+    return N
+
+
+@pytest.mark.parametrize("K, grid", [(3.0, (97, 211)), (5.0, (60, 90)), (8.0, (97, 211))])
+def test_a_jittering_describing_function_gives_each_cycle_once(K, grid):
+    r = limit_cycles(
+        PLANT,
+        jittery_relay(),
+        gains=[K],
+        amplitude_range=(0.1001, 50),
+        n_amplitude=grid[0],
+        n_omega=grid[1],
+    )
+    (c,) = r.intersections
+    A, w = relay_analytic(K)
+    assert abs(np.log(c.amplitude / A)) < ROOT_TOL and abs(np.log(c.omega / w)) < ROOT_TOL
 
 
 @pytest.mark.slow

@@ -11,6 +11,7 @@ import numpy as np
 from fitdf.data.cores import MATERIAL_LIMITS
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES
 from fitdf.inference.problem import FitProblem
+from fitdf.params import DIMENSIONLESS
 
 __all__ = [
     "bound_warnings",
@@ -33,10 +34,15 @@ def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
         bound = s.bounds[0] if side == "lower" else s.bounds[1]
         why = _box_reason(problem, s, side)
         out.append(
-            f"parameter {s.name} sits on its {side} bound {bound:.4g} {s.unit}{why}: the data "
+            f"parameter {s.name} sits on its {side} bound {bound:.4g}{_unit(s)}{why}: the data "
             f"want a {'smaller' if side == 'lower' else 'larger'} value and do not determine it"
         )
     return out
+
+
+def _unit(spec) -> str:
+    """`` unit`` to follow a value, or nothing for a pure number."""
+    return "" if spec.unit_label == DIMENSIONLESS else f" {spec.unit}"
 
 
 def _box_reason(problem: FitProblem, spec, side) -> str:
@@ -63,8 +69,8 @@ def identifiability_warnings(
         if wide:
             held = " (held by its prior)" if s.name in problem.priors else ""
             out.append(
-                f"the data do not determine {s.name}: 68% interval {lo:.3g}..{hi:.3g} "
-                f"{s.unit}{held}".replace("  ", " ")
+                f"the data do not determine {s.name}: 68% interval {lo:.3g}..{hi:.3g}"
+                f"{_unit(s)}{held}"
             )
     return out
 
@@ -83,7 +89,7 @@ def posterior_bound_warnings(problem: FitProblem, draws, rel=0.01, mass=0.025) -
             continue
         bound = s.bounds[0] if side == "lower" else s.bounds[1]
         out.append(
-            f"the posterior of {s.name} runs into its {side} bound {bound:.4g} {s.unit}"
+            f"the posterior of {s.name} runs into its {side} bound {bound:.4g}{_unit(s)}"
             f"{_box_reason(problem, s, side)}: {100 * share:.0f} % of the draws lie within "
             f"{100 * rel:g} % of the box from it; the box, not the data, ends it there"
         )

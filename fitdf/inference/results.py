@@ -8,6 +8,7 @@ them alike.
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -16,6 +17,7 @@ import pandas as pd
 
 from fitdf._json import clean
 from fitdf.inference.metrics import phase_difference_deg, residual_metrics
+from fitdf.params import DIMENSIONLESS
 
 __all__ = ["FitResult", "PosteriorResult", "residual_table"]
 
@@ -151,7 +153,18 @@ class FitResult:
             )
         return pd.DataFrame(rows)
 
-    def summary(self) -> str:
+    def summary(self, width: int = 100) -> str:
+        """The fit as text, no line longer than ``width``: metrics, then each parameter.
+
+        Each parameter is a line of value, unit (``-``: dimensionless), 68% interval
+        (least squares: Gaussian in the optimiser's coordinate; MCMC: the posterior's 16th
+        to 84th percentile) and whether it was held fixed, followed by an indented line
+        saying what it means (wrapped at ``width``).
+        """
+
+        def _number(value) -> str:
+            return f"{value:.4g}" if np.isfinite(value) else "n/a"
+
         m = self.metrics
         lines = [
             f"{self.model} + {self.chain} chain ({self.method}) on {self.label}: "
@@ -159,13 +172,30 @@ class FitResult:
             f"  RMS complex {m['rms_complex']:.4f}  magnitude {m['rms_magnitude']:.4f}  "
             f"phase {m['rms_phase_deg']:.2f} deg  redchi {m['redchi']:.3g}  AICc {m['aicc']:.1f}",
         ]
+        specs = {s.name: s for s in self.problem.all_specs}
+        rows = []
         for _, row in self.parameter_table().iterrows():
-            tag = " (fixed)" if row["fixed"] else ""
-            lines.append(
-                f"  {row['parameter']:<14s} {row['value']:.5g} {row['unit']}"
-                f"  68%: [{row['p16']:.4g}, {row['p84']:.4g}]{tag}"
+            spec = specs[row["parameter"]]
+            interval = (
+                "fixed" if row["fixed"] else f"{_number(row['p16'])} .. {_number(row['p84'])}"
             )
-        lines += [f"  warning: {w}" for w in self.warnings]
+            rows.append((row["parameter"], _number(row["value"]), spec.unit_label, interval, spec))
+        head = ("parameter", "value", "unit", "68% interval")
+        w = [max(len(head[i]), *(len(r[i]) for r in rows)) for i in range(3)] if rows else []
+        if rows:
+            lines.append(f"  {head[0]:<{w[0]}}  {head[1]:>{w[1]}}  {head[2]:<{w[2]}}  {head[3]}")
+        for name, value, unit, interval, spec in rows:
+            lines.append(f"  {name:<{w[0]}}  {value:>{w[1]}}  {unit:<{w[2]}}  {interval}")
+            meaning = spec.description or "(no description)"
+            lines += textwrap.wrap(
+                meaning, width, initial_indent=" " * 6, subsequent_indent=" " * 6
+            )
+        if any(r[2] == DIMENSIONLESS for r in rows):
+            lines.append(f"  (unit {DIMENSIONLESS}: dimensionless)")
+        for w_ in self.warnings:
+            lines += textwrap.wrap(
+                f"warning: {w_}", width, initial_indent="  ", subsequent_indent="    "
+            )
         return "\n".join(lines)
 
     def __str__(self):
@@ -230,7 +260,7 @@ class PosteriorResult(FitResult):
         max_draws=400,
         seed=0,
     ) -> dict:
-        """Posterior predictive bands of |DF| and phase lead (deg) at the given points."""
+        """Posterior predictive bands of ``|DF|`` and phase lead (deg) at the given points."""
         amplitude, frequency, source_impedance = np.broadcast_arrays(
             np.asarray(amplitude, float),
             np.asarray(frequency, float),

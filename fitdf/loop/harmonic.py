@@ -11,7 +11,8 @@ when the first harmonic balances::
 frequencies: ``F`` on a coarse log-spaced grid (one vectorised evaluation of ``N``),
 candidate cells where both ``Re F`` and ``Im F`` change sign or ``|F|`` has a small
 local minimum, refinement of every candidate at once (Levenberg-Marquardt, batched evaluations of ``N``)
-on ``(ln A, ln omega)`` of ``[ln|G N|, arg(-G N)]``, and de-duplication. The loop gain
+on ``(ln A, ln omega)`` of ``[ln|G N|, arg(-G N)]``, and de-duplication (roots of one gain
+closer than the solver's tolerance, :data:`DEDUP_TOL`, are one cycle). The loop gain
 ``K`` (``G = K G0``) is swept, and the gain below which no solution exists is found
 (:func:`critical_gain`).
 
@@ -71,8 +72,15 @@ __all__ = [
 #: ``benchmarks/bench_limit_cycles.py``); half the DF's own tolerance accepts what the
 #: circuit can resolve and no more. A callable's roots converge to ~1e-15.
 ROOT_TOL = 1e-4
-#: Two roots closer than this in ``ln A`` and ``ln omega`` are one.
-DEDUP_TOL = 1e-6
+#: Two accepted roots of one gain closer than this in both ``ln A`` and ``ln omega`` are one
+#: cycle reached from two starts: the solver's own tolerance, :data:`ROOT_TOL`. A root is
+#: accepted within ROOT_TOL of balance in ``[ln|G N|, arg(-G N)]``, whose derivatives in
+#: ``ln A`` and ``ln omega`` are of order one away from a double root, so the solver places a
+#: cycle to about ROOT_TOL in each coordinate (a relative 1e-4 in amplitude and frequency, the
+#: fourth digit the table prints). Two starts that reach one cycle of a fitted core stop
+#: where its DF's jitter lets them, ~1e-5 apart, which a tighter tolerance would report as two.
+#: Of the roots it merges, the one with the smallest residual is kept.
+DEDUP_TOL = ROOT_TOL
 #: Step of the refinement's finite differences in ``ln A`` and ``ln omega``. A fitted
 #: core's DF comes from the exact circuit, whose discretisation moves it by ~1e-6 between
 #: points a hair apart: differences over 1e-9 measured that, not the slope, and the
@@ -257,6 +265,21 @@ def _refine(plant, N, gains, x0, bounds):
     return x, np.sum(np.abs(r), axis=1)
 
 
+def _distinct_roots(x, res, owner) -> np.ndarray:
+    """Indices of the distinct roots among refined starts: rows of ``x`` (``ln A``,
+    ``ln omega``) whose residual ``res`` is at most :data:`ROOT_TOL`, one per cycle of each
+    gain (``owner``: the gain's index per row). Roots of one gain within :data:`DEDUP_TOL` of
+    a kept one in both coordinates are that cycle again; the smallest residual is kept.
+    Returned in the order of the rows."""
+    x, res, owner = np.asarray(x, float), np.asarray(res, float), np.asarray(owner)
+    kept = []
+    for i in sorted(np.flatnonzero(res <= ROOT_TOL), key=lambda i: (res[i], i)):
+        same = (owner[kept] == owner[i]) & np.all(np.abs(x[kept] - x[i]) < DEDUP_TOL, axis=1)
+        if not same.any():
+            kept.append(i)
+    return np.sort(np.asarray(kept, int))
+
+
 def _solve_gains(plant, N, gains, A_grid, w_grid, Ngrid, Gall, max_candidates):
     """The cycles of every gain: candidate cells of each gain's grid, all refined at once
     (:func:`_refine`), de-duplicated, then ``N`` and Loeb's derivatives at the roots in one
@@ -270,19 +293,9 @@ def _solve_gains(plant, N, gains, A_grid, w_grid, Ngrid, Gall, max_candidates):
         owner.append(np.full(len(pts), k))
     owner = np.concatenate(owner)
     x, res = _refine(plant, N, gains[owner], np.concatenate(starts), bounds)
-    roots = []
-    for k in range(gains.size):
-        mine = []
-        for i in np.flatnonzero(owner == k):
-            if res[i] > ROOT_TOL:
-                continue
-            if any(np.all(np.abs(x[i] - x[j]) < DEDUP_TOL) for j in mine):
-                continue
-            mine.append(i)
-        roots.extend(mine)
-    if not roots:
+    roots = _distinct_roots(x, res, owner)
+    if not roots.size:
         return []
-    roots = np.asarray(roots, int)
     u, v, g, k = x[roots, 0], x[roots, 1], gains[owner[roots]], owner[roots]
     # Loeb's derivatives: central differences in ln A and ln omega, with the root itself
     hl = LOEB_DIFF_STEP

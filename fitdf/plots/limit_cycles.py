@@ -3,11 +3,12 @@
 * :func:`plot_nyquist` -- the Nyquist plane: the plant locus ``K G0(j omega)`` for a few
   gains and the critical loci ``-1/N(A, omega)`` for a few frequencies, with the
   harmonic-balance intersections marked (filled: stable by Loeb's criterion; open:
-  unstable). For a measured core the loci lie in the second quadrant (phase lead,
-  Fig 5.10).
+  unstable), framed on where the loci meet, beside a panel of the whole loci. For a
+  measured core the loci lie in the second quadrant (phase lead, Fig 5.10).
 * :func:`plot_thesis_comparison` -- predicted vs measured amplitude and frequency
   against the system gain for Tables 5.1 and 5.2, with the predicted and measured
-  gains at which the oscillation dies out.
+  gains at which the oscillation dies out; its title names the analog computer's time
+  scale ``alpha`` and gain scale ``beta`` (:func:`fitdf.thesis.estimate_thesis_scales`).
 * :func:`plot_time_response` -- a simulated loop (:mod:`fitdf.loop.simulate`).
 
 Like :mod:`fitdf.plots.thesis`, figures are built on the Agg canvas without
@@ -18,6 +19,7 @@ an error under ``filterwarnings = error``). Every function returns the Figure.
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.patches import Rectangle
 
 from fitdf.plots._figure import new_figure
 
@@ -33,86 +35,213 @@ def _pick(values, n):
     return values[np.unique(np.round(np.linspace(0, values.size - 1, n)).astype(int))]
 
 
-def plot_nyquist(response, ax=None, gains=None, omegas=None, n_gains=3, n_loci=4, n_points=400):
+def _closest_pair(curves_a, curves_b):
+    """The closest points ``(p, q)`` of any curve of ``curves_a`` and any of ``curves_b``
+    (arrays of complex points; non-finite points ignored), or None."""
+    best = None
+    for a in curves_a:
+        a = a[np.isfinite(a)]
+        for b in curves_b:
+            b = b[np.isfinite(b)]
+            if not (a.size and b.size):
+                continue
+            d = np.abs(a[:, None] - b[None, :])
+            i, j = np.unravel_index(np.argmin(d), d.shape)
+            if best is None or d[i, j] < best[0]:
+                best = (d[i, j], a[i], b[j])
+    return None if best is None else best[1:]
+
+
+def _frame(points, aspect=1.3):
+    """Axis limits ``(x0, x1), (y0, y1)`` around ``points`` (complex) with a margin: the
+    points' box grown by 0.6 of its size or of 0.4 of the points' distance from the origin,
+    whichever is larger; ``aspect``: the x span over the y span."""
+    p = np.asarray(points, complex)
+    p = p[np.isfinite(p)]
+    lo_x, hi_x, lo_y, hi_y = p.real.min(), p.real.max(), p.imag.min(), p.imag.max()
+    size = max(hi_x - lo_x, hi_y - lo_y)
+    half = 0.5 * size + 0.6 * max(size, 0.4 * np.abs(p).max(), 1e-12)
+    cx, cy = 0.5 * (lo_x + hi_x), 0.5 * (lo_y + hi_y)
+    return (cx - aspect * half, cx + aspect * half), (cy - half, cy + half)
+
+
+def _overview_frame(curves):
+    """Limits showing every curve and the origin (points beyond 99% of the distances from
+    the origin left out: ``-1/N`` runs off towards infinity where ``N`` vanishes)."""
+    p = np.concatenate([np.asarray(c, complex).ravel() for c in curves] + [np.zeros(1, complex)])
+    p = p[np.isfinite(p)]
+    p = p[np.abs(p) <= np.quantile(np.abs(p), 0.99)]
+    pad = 0.05 * max(np.ptp(p.real), np.ptp(p.imag), 1e-12)
+    return (p.real.min() - pad, p.real.max() + pad), (p.imag.min() - pad, p.imag.max() + pad)
+
+
+def plot_nyquist(
+    response,
+    ax=None,
+    gains=None,
+    omegas=None,
+    n_gains=3,
+    n_loci=4,
+    n_points=400,
+    overview=True,
+):
     """Nyquist-plane figure of a :class:`~fitdf.loop.harmonic.LimitCycleResponse`.
+
+    The plant loci ``G(j omega)`` and the critical loci ``-1/N(A, omega)`` (one per
+    frequency, amplitude along it), framed on where they meet: the cycles found (filled
+    marker: stable by Loeb's criterion; open: unstable), else the first cycle, at the
+    critical gain, whose plant locus is then drawn too, else where the loci come closest.
+    With ``overview`` a second panel shows the whole loci, the framed region outlined.
 
     Parameters
     ----------
     response : LimitCycleResponse
     ax : matplotlib Axes, optional
-        Draw into it (its figure is returned).
+        Draw the framed view into it (its figure is returned; no overview panel).
     gains : sequence of float, optional
         Gains whose plant loci are drawn (default: up to ``n_gains`` of the sweep).
     omegas : sequence of float, optional
         Frequencies (rad/s) of the critical loci (default: those of the intersections,
-        up to ``n_loci``; else a few across the searched range).
+        up to ``n_loci``; else the critical point's; else a few across the searched range).
     n_points : int
         Points per curve.
+    overview : bool
+        Add the panel of the whole loci (when ``ax`` is not given).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     if ax is None:
-        fig, axes = new_figure(FIGSIZE, 1, 1)
-        ax = axes[0, 0]
+        if overview:
+            fig, axes = new_figure((11.0, 5.0), 1, 2, width_ratios=(1.7, 1.0))
+        else:
+            fig, axes = new_figure(FIGSIZE, 1, 1)
+        ax, full = axes[0, 0], (axes[0, 1] if overview else None)
+    else:
+        full = None
     fig = ax.figure
     lp, N = response.plant, response.describing_function
     gains = _pick(response.gains, n_gains) if gains is None else np.atleast_1d(gains)
     cycles = response.intersections
+    crit = response.critical_gain
+    point = response.critical_point or {}
+    first = None  # (gain, omega) of the first cycle, shown when no cycle is
+    if not cycles and np.isfinite(crit) and np.isfinite(point.get("omega", np.nan)):
+        first = (float(crit), float(point["omega"]))
     if omegas is None:
-        omegas = (
-            _pick([c.omega for c in cycles], n_loci)
-            if cycles
-            else np.geomspace(*response.omega_range, n_loci + 2)[1:-1]
-        )
+        if cycles:  # (frequencies the legend would print alike are one locus)
+            by_label = {f"{c.omega:.3g}": c.omega for c in cycles}
+            omegas = _pick(list(by_label.values()), n_loci)
+        elif first is not None:
+            omegas = [first[1]]
+        else:
+            omegas = np.geomspace(*response.omega_range, n_loci + 2)[1:-1]
     w = np.geomspace(*response.omega_range, n_points)
     A = np.geomspace(*response.amplitude_range, n_points)
-    pts = [0j]
+    plant_curves, critical_curves = [], []
+    # (curve, style): drawn alike in both panels, labelled in the framed one
+    drawn = []
     for k, g in enumerate(gains):
         G = lp.response(w, [g])[0]
-        ax.plot(G.real, G.imag, color=f"C{k}", lw=1.4, label=f"G(jw), K = {g:.4g}")
+        plant_curves.append(G)
+        drawn.append((G, dict(color=f"C{k}", lw=1.4, label=f"G(jw), K = {g:.4g}")))
+    if first is not None:
+        G = lp.response(w, [first[0]])[0]
+        plant_curves.append(G)
+        label = f"G(jw), K = {first[0]:.4g} (critical gain)"
+        drawn.append((G, dict(color="C3", lw=1.2, ls="--", label=label)))
     for k, om in enumerate(np.atleast_1d(omegas)):
         with np.errstate(all="ignore"):
             loc = -1.0 / np.asarray(N(A, np.full_like(A, om)), complex)
-        ax.plot(
-            loc.real,
-            loc.imag,
-            color="0.35",
-            lw=1.0,
-            ls=("-", "--", ":", "-.")[k % 4],
-            label=f"-1/N(A), w = {om:.3g} rad/s",
-        )
-        pts.extend(loc[np.isfinite(loc)])
-    for c in sorted(
-        cycles, key=lambda c: c.stable
-    ):  # stable (small, filled) on top of unstable rings
-        ax.plot(
-            c.G.real,
-            c.G.imag,
-            "o",
-            color="k",
-            mfc="k" if c.stable else "white",
-            ms=6 if c.stable else 11,
-            zorder=6 if c.stable else 5,
-        )
-        pts.append(c.G)
+        critical_curves.append(loc)
+        style = dict(color="0.35", lw=1.0, ls=("-", "--", ":", "-.")[k % 4])
+        drawn.append((loc, {**style, "label": f"-1/N(A, w), w = {om:.3g} rad/s"}))
+    for target in (ax, full):
+        if target is None:
+            continue
+        for curve, style in drawn:
+            target.plot(
+                curve.real, curve.imag, **(style if target is ax else {**style, "label": None})
+            )
+        # stable (small, filled) on top of unstable rings
+        for c in sorted(cycles, key=lambda c: c.stable):
+            target.plot(
+                c.G.real,
+                c.G.imag,
+                "o",
+                color="k",
+                mfc="k" if c.stable else "white",
+                ms=6 if c.stable else 11,
+                zorder=6 if c.stable else 5,
+            )
+        target.axhline(0, color="0.8", lw=0.6)
+        target.axvline(0, color="0.8", lw=0.6)
+        target.set_xlabel("Re")
+        target.set_ylabel("Im")
     if cycles:
-        ax.plot([], [], "o", color="k", mfc="k", label="stable cycle")
+        ax.plot([], [], "o", color="k", mfc="k", label="stable cycle (Loeb)")
         if not all(c.stable for c in cycles):
-            ax.plot([], [], "o", color="k", mfc="white", label="unstable cycle")
-    pts = np.asarray(pts)
-    focus = np.array([c.G for c in cycles] + [0j]) if cycles else pts
-    span = max(np.max(np.abs(focus)) * 1.8, 1e-12)
-    ax.set_xlim(-span, span * 0.6)
-    ax.set_ylim(-span * 0.8, span * 0.8)
-    ax.axhline(0, color="0.8", lw=0.6)
-    ax.axvline(0, color="0.8", lw=0.6)
-    ax.set_xlabel("Re")
-    ax.set_ylabel("Im")
-    ax.set_title("Nyquist plane: plant loci and critical loci -1/N(A, w)", fontsize="medium")
-    ax.legend(fontsize="x-small", loc="lower left")
+            ax.plot([], [], "o", color="k", mfc="white", label="unstable cycle (Loeb)")
+        if len(cycles) <= 8:  # cycles at one point of the plane (gains apart) share a label
+            spots = {}
+            for c in cycles:
+                key = min(
+                    (k for k in spots if abs(k - c.G) < 1e-3 * abs(c.G)), default=c.G, key=abs
+                )
+                spots.setdefault(key, []).append(c.amplitude)
+            for G, amps in spots.items():
+                ax.annotate(
+                    "A = " + ", ".join(f"{a:.3g}" for a in sorted(amps)) + " V",
+                    (G.real, G.imag),
+                    xytext=(8, -10),
+                    textcoords="offset points",
+                    fontsize="x-small",
+                )
+        focus = [c.G for c in cycles]
+    elif first is not None:
+        Gc = complex(lp.response([first[1]], [first[0]])[0, 0])
+        ax.plot(Gc.real, Gc.imag, "D", color="C3", ms=6, zorder=6, label="first cycle")
+        if full is not None:
+            full.plot(Gc.real, Gc.imag, "D", color="C3", ms=6, zorder=6)
+        focus = [Gc]
+    else:
+        focus = []
+    if not cycles:  # and how far the drawn plant loci stay from the critical loci
+        pair = _closest_pair(plant_curves[: len(gains)], critical_curves)
+        focus += list(pair) if pair is not None else []
+    focus = focus or [0j]
+    (x0, x1), (y0, y1) = _frame(focus)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    where = "where the loci meet" if cycles or first is not None else "where the loci come closest"
+    ax.set_title(f"Nyquist plane, {where}", fontsize="medium")
+    ax.legend(fontsize="x-small", loc="best")
+    if full is not None:
+        (fx0, fx1), (fy0, fy1) = _overview_frame(
+            plant_curves + critical_curves + [np.asarray(focus)]
+        )
+        full.set_xlim(min(fx0, x0), max(fx1, x1))
+        full.set_ylim(min(fy0, y0), max(fy1, y1))
+        full.add_patch(
+            Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, color="C3", lw=1.0, zorder=7)
+        )
+        full.set_title("whole loci (red box: left panel)", fontsize="medium")
     return fig
+
+
+def _scales_title(df) -> str:
+    """The comparison figure's title: what was compared, and its two scalings spelled out."""
+    alpha, beta = df.attrs.get("alpha", np.nan), df.attrs.get("beta", np.nan)
+    joint = df.attrs.get("scales", {}).get("joint", {})
+    estimated = joint.get("alpha") == alpha and joint.get("beta") == beta
+    how = "estimated from the tables by harmonic balance" if estimated else "as given"
+    return (
+        "Tables 5.1/5.2 (analog computer) vs harmonic balance with the Appendix B fits\n"
+        f"plant run as G(s/\u03b1), \u03b1 = {alpha:.3g}: the computer's time scale; "
+        f"loop gain \u03b2K, \u03b2 = {beta:.3g}:\n"
+        f"the scale of its system gain K (\u03b1 and \u03b2 {how})"
+    )
 
 
 def plot_thesis_comparison(df):
@@ -120,12 +249,13 @@ def plot_thesis_comparison(df):
 
     Columns are the cores, rows the amplitude and the angular frequency against the
     system gain. Markers: measured (circles 0 ohm, squares 600 ohm; x: the values
-    printed for a row marked "oscillations die out"); lines: predicted largest stable cycle; plus signs:
-    the simulated loop (if the frame has them); dotted verticals: the predicted gain
-    below which no cycle exists.
+    printed for a row marked "oscillations die out"); lines: predicted largest stable cycle;
+    plus signs: the simulated loop (if the frame has them); dotted verticals: the predicted
+    gain below which no cycle exists. Every element is in the legend under its column; the
+    title says what the scalings ``alpha`` (time) and ``beta`` (gain) of ``df.attrs`` are.
     """
     cores = list(dict.fromkeys(df["core"]))
-    fig, axes = new_figure((4.2 * len(cores), 6.2), 2, len(cores), sharex="col")
+    fig, axes = new_figure((4.6 * len(cores), 8.4), 2, len(cores), sharex="col")
     for j, core in enumerate(cores):
         sub = df[df["core"] == core]
         for k, (rs, block) in enumerate(sub.groupby("source_impedance_ohm")):
@@ -133,7 +263,7 @@ def plot_thesis_comparison(df):
             b = block.sort_values("system_gain")
             live = b[~b["dies_out"]]
             dead = b[b["dies_out"]]
-            label = f"{rs:g} ohm ({b['table'].iloc[0]}, {b['model'].iloc[0]})"
+            where = f"{rs:g} ohm ({b['table'].iloc[0]}, {b['model'].iloc[0]})"
             for i, (meas, pred) in enumerate(
                 (("amplitude_v", "amplitude_pred"), ("omega_rad_s", "omega_pred"))
             ):
@@ -144,7 +274,7 @@ def plot_thesis_comparison(df):
                     marker,
                     color=color,
                     mfc="none",
-                    label=f"measured {label}",
+                    label=f"measured, {where}",
                 )
                 ax.plot(
                     b["system_gain"],
@@ -152,7 +282,7 @@ def plot_thesis_comparison(df):
                     "-",
                     color=color,
                     lw=1.3,
-                    label=f"predicted {rs:g} ohm",
+                    label=f"predicted largest stable cycle, {rs:g} ohm",
                 )
                 sim = {"amplitude_pred": "amplitude_sim", "omega_pred": "omega_sim"}[pred]
                 if sim in b:
@@ -162,28 +292,48 @@ def plot_thesis_comparison(df):
                         "+",
                         color=color,
                         ms=7,
-                        label=f"simulated {rs:g} ohm",
+                        label=f"simulated loop, {rs:g} ohm",
                     )
-                shown = dead[
-                    np.isfinite(dead[meas])
-                ]  # the tables print values for some of these rows
+                # the tables print values for some rows marked "oscillations die out"
+                shown = dead[np.isfinite(dead[meas])]
                 if not shown.empty:
-                    ax.plot(shown["system_gain"], shown[meas], "x", color=color, ms=8)
+                    ax.plot(
+                        shown["system_gain"],
+                        shown[meas],
+                        "x",
+                        color=color,
+                        ms=8,
+                        label=f'printed in a row marked "oscillations die out", {rs:g} ohm',
+                    )
                 crit = b["critical_gain_pred"].iloc[0]
                 if np.isfinite(crit):
-                    ax.axvline(crit, color=color, ls=":", lw=1.0)
+                    ax.axvline(
+                        crit,
+                        color=color,
+                        ls=":",
+                        lw=1.0,
+                        label=f"predicted gain below which no cycle exists, {rs:g} ohm",
+                    )
         axes[0, j].set_title(f"{core}", fontsize="medium")
         axes[0, j].set_ylabel("amplitude (V)")
         axes[1, j].set_ylabel("omega (rad/s)")
         axes[1, j].set_xlabel("system gain K")
         for ax in axes[:, j]:
             ax.set_xscale("log")
-        axes[0, j].legend(fontsize="x-small")
-    alpha, beta = df.attrs.get("alpha", np.nan), df.attrs.get("beta", np.nan)
-    fig.suptitle(
-        f"Tables 5.1/5.2 vs harmonic balance: G(s/{alpha:.3g}), loop gain {beta:.3g} K",
-        fontsize="medium",
-    )
+        # one legend per column, under it: the entries of both rows (a row may lack some)
+        entries = {}
+        for ax in axes[:, j]:
+            for handle, label in zip(*ax.get_legend_handles_labels()):
+                entries.setdefault(label, handle)
+        axes[1, j].legend(
+            entries.values(),
+            entries.keys(),
+            fontsize="x-small",
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.16),
+            ncol=1,
+        )
+    fig.suptitle(_scales_title(df), fontsize="medium")
     return fig
 
 
