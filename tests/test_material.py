@@ -12,6 +12,7 @@ from fitdf.data.cores import (
     A_PER_M_PER_OERSTED,
     MU_0,
     STACKING_FACTOR,
+    STACKING_FACTOR_RANGE,
     CoreGeometry,
     appendix_a_ranges,
     core_geometry,
@@ -21,11 +22,13 @@ from fitdf.errors import OptionError
 from fitdf.inference.material import (
     CHECK_QUANTITIES,
     SMALL_SIGNAL_RATIO,
+    DETERMINED_BY,
     appendix_a_check,
     current_from_field,
     field_from_current,
     flux_linkage_from_induction,
     inductance_from_permeability,
+    implied_stacking_factor,
     induction_from_flux_linkage,
     loop_landmarks,
     material_constants,
@@ -260,7 +263,9 @@ def test_appendix_a_check_edges_inclusive():
     rows = appendix_a_check(_values(), ranges)
     assert [r["quantity"] for r in rows] == list(CHECK_QUANTITIES)
     assert all(r["inside"] for r in rows)
-    assert all(set(r) == {"quantity", "fitted", "low", "high", "unit", "inside"} for r in rows)
+    keys = {"quantity", "fitted", "low", "high", "unit", "inside"}
+    keys |= {"fitted_low", "fitted_high", "inside_range", "determined"}
+    assert all(set(r) == keys for r in rows)
     for q, (lo, hi, _) in ranges.items():
         for value, expect in (
             (lo, True),
@@ -311,3 +316,78 @@ def test_appendix_a_check_open_range_and_json():
     assert by_q["initial_permeability"]["fitted"] == pytest.approx(mc.initial_permeability)
     assert by_q["coercive_force_Hc"]["unit"] == "oersted"
     assert by_q["winding_resistance"]["inside"]  # 60 within 53.8 +- 30 %
+
+
+# --- the iron fraction (stacking factor) -----------------------------------------------------
+
+
+def test_stacking_factor_is_a_range_for_thesis_cores_and_known_when_stated():
+    g = core_geometry("permalloy")
+    assert g.stacking_factor == STACKING_FACTOR and g.stacking_range == STACKING_FACTOR_RANGE
+    # B and mu_r scale as 1/stacking factor: 0.85/0.90 and 0.85/0.50 at the range's ends
+    assert g.iron_fraction_spread == pytest.approx((0.85 / 0.90, 0.85 / 0.50), rel=1e-15)
+    known = core_geometry("permalloy", stacking_factor=0.7)
+    assert known.stacking_range is None and known.iron_fraction_spread == (1.0, 1.0)
+    with pytest.raises(OptionError, match="stacking range"):
+        CoreGeometry.from_dimensions(1000, 0.06, 0.05, 0.01, stacking_range=(0.9, 0.95))
+
+
+def test_implied_stacking_factor_by_hand():
+    """The stacking factor at which the fitted peak flux is Appendix A's B_p, computed here from
+    the printed dimensions alone: lambda_p / (N (OD - ID)/2 h B_p)."""
+    g = core_geometry("permalloy")
+    mu0, gamma, c_sat, i_max = 15.0, 2e4, 0.3, 2e-3
+    mc = material_constants(
+        Rayleigh, {"mu0": mu0, "gamma": gamma, "c_sat": c_sat}, g, current_max=i_max
+    )
+    gross = (2.5 - 2.0) / 2 * 0.5 * IN**2  # m^2, Appendix A: 2.5 x 2.0 x 0.5 in
+    lam = mc.peak_flux_linkage_vs
+    ranges = appendix_a_ranges("permalloy")  # B_p 6500-8000 G
+    got = implied_stacking_factor(mc, ranges)
+    assert got["low"] == pytest.approx(lam / (1250 * gross * 0.80), rel=1e-12)
+    assert got["high"] == pytest.approx(lam / (1250 * gross * 0.65), rel=1e-12)
+    assert got["range"] == list(STACKING_FACTOR_RANGE)
+    assert got["consistent"] == (got["low"] <= 0.9 and got["high"] >= 0.5)
+    # the check spans the inductions and permeabilities over the stacking range, not H_c
+    rows = {r["quantity"]: r for r in appendix_a_check(mc, ranges)}
+    bp = rows["peak_flux_density_Bp"]
+    assert bp["fitted"] == pytest.approx(lam / (1250 * gross * 0.85) * 1e4, rel=1e-12)
+    assert (bp["fitted_low"], bp["fitted_high"]) == pytest.approx(
+        (lam / (1250 * gross * 0.90) * 1e4, lam / (1250 * gross * 0.50) * 1e4), rel=1e-12
+    )
+    assert bp["inside_range"] == (bp["fitted_high"] >= 6500 and bp["fitted_low"] <= 8000)
+    hc = rows["coercive_force_Hc"]
+    assert hc["fitted_low"] == hc["fitted_high"] == hc["fitted"]
+
+
+def test_what_the_data_determine():
+    """Flux linkages are invariant under the current scale, fields are not, and inductions and
+    permeabilities carry the iron fraction; a joint 0 + 600 ohm fit fixes the scale."""
+    ranges = appendix_a_ranges("permalloy")
+    single = {r["quantity"]: r["determined"] for r in appendix_a_check(_values(), ranges)}
+    joint = {r["quantity"]: r["determined"] for r in appendix_a_check(_values(), ranges, joint=True)}
+    data, iron = DETERMINED_BY[(False, False)], DETERMINED_BY[(True, False)]
+    assert single["squareness_Br_over_Bp"] == joint["squareness_Br_over_Bp"] == data
+    assert single["peak_flux_density_Bp"] == joint["peak_flux_density_Bp"] == iron
+    assert single["coercive_force_Hc"] == DETERMINED_BY[(False, True)]
+    assert joint["coercive_force_Hc"] == data
+    assert single["initial_permeability"] == DETERMINED_BY[(True, True)]
+    assert joint["initial_permeability"] == iron
+
+
+def test_material_record_of_a_fit_says_what_its_rows_determine():
+    """A joint (0 + 600 ohm) fit fixes the current scale, a one-table fit does not; both carry
+    the iron fraction their peak flux implies with Appendix A's B_p."""
+    import fitdf
+
+    joint = fitdf.fit("permalloy", "rayleigh", chain="winding", method="lsq", n_starts=1)
+    single = fitdf.fit("B.1", "rayleigh", chain="winding", method="lsq", n_starts=1)
+    for result, expect in ((joint, DETERMINED_BY[(False, False)]), (single, None)):
+        rows = {r["quantity"]: r for r in result.material["appendix_a_check"]}
+        hc = rows["coercive_force_Hc"]["determined"]
+        assert hc == (expect or DETERMINED_BY[(False, True)])
+        implied = result.material["constants"]["implied_stacking_factor"]
+        lam = result.material["constants"]["peak_flux_linkage_vs"]
+        g = result.problem.geometry
+        gross = g.a_e / g.stacking_factor
+        assert implied["low"] == pytest.approx(lam / (g.turns * gross * 0.80), rel=1e-12)

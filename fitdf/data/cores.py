@@ -1,37 +1,35 @@
 """Physical data of the thesis's cores (Appendix A) that the fits cannot get from the DF alone.
 
-Why the winding resistance matters
-----------------------------------
-Every candidate law is closed under a change of current scale: ``N'(I) = s N(s I)`` is the
-same law with other parameters (``k -> s k``, ``b -> b / s``, ``c -> c``). In the winding
-chain the measured DF is ``Z / (R + Z)`` with ``I |R + Z(I)| = V``; scaling the core by
-``s`` *and* the total series resistance ``R`` by ``s`` leaves every measured point
-unchanged. So data taken at one source impedance determine the core only up to that
-scale, with the winding resistance running along the degenerate direction; a joint fit of
-0 and 600 ohm data breaks the symmetry (``r_w`` and ``600 + r_w`` cannot both scale), and
-so does knowing ``r_w``. Predicting one source impedance from the other therefore needs
-``r_w`` from outside the DF data: :func:`winding_resistance_estimate` gives it from
-Appendix A (turns, wire gauge, core dimensions).
-
-Core geometry and material units
---------------------------------
-The laws work in winding units (current in A, flux linkage in V s, ``N`` in H). With the
-toroid's turns ``N``, magnetic path length ``l_e`` and iron cross-section ``A_e``
-(:class:`CoreGeometry`, :func:`core_geometry`) they convert to the material units of
-Appendix A::
+Provides :class:`CoreGeometry` (turns, magnetic path length and iron section of a toroid,
+and the conversions between winding and material units), :func:`core_geometry` (the
+geometry of a thesis core from Appendix A), :func:`parse_geometry` (a user's core from
+``turns=...,od=...,id=...,height=...``, the ``--geometry`` option),
+:func:`appendix_a_ranges` (the printed material ranges), :func:`winding_resistance_estimate`
+and the unit conversions. The laws work in winding units (current in A, flux linkage in
+V s, ``N`` in H); with the turns ``N``, path length ``l_e`` and iron section ``A_e``::
 
     H = N i / l_e            (A/m;  1 Oe = 1000 / (4 pi) A/m)
     B = lambda / (N A_e)     (T;    1 T = 1e4 G)
     mu_r = L l_e / (mu_0 N^2 A_e)   (an inductance L as relative permeability, i.e.
                                      gauss/oersted, the unit Appendix A prints)
 
-:func:`appendix_a_ranges` gives the printed material ranges these are compared with.
-
-Assumptions (the thesis prints neither): ``l_e`` is the mean circumference
-``pi (OD + ID) / 2`` (exact for the field averaged over a thin ring; for these cores,
-``OD/ID = 1.25``, the field at the inner radius is 11 % above the mean); the printed
-dimensions are the bare tape-wound core's, not its case's; the iron section is the gross
-section ``(OD - ID) / 2 x h`` times the stacking factor :data:`STACKING_FACTOR`.
+Notes
+-----
+Every candidate law is closed under a change of current scale (``N'(I) = s N(s I)`` is the
+same law with other parameters), and scaling the core by ``s`` and the series resistance
+``R`` by ``s`` leaves every measured point unchanged. Data at one source impedance therefore
+determine a core only up to that scale, with the winding resistance along the degenerate
+direction; a joint fit of 0 and 600 ohm data breaks the symmetry, and so does knowing
+``r_w``, which :func:`winding_resistance_estimate` gives from Appendix A (turns, wire gauge,
+core dimensions). The geometry rests on assumptions the thesis does not print: ``l_e`` is
+the mean circumference ``pi (OD + ID) / 2`` (for these cores, ``OD/ID = 1.25``, the field
+at the inner radius is 11 % above the mean); the printed dimensions are the bare
+tape-wound core's, not its case's; the iron section is the gross section
+``(OD - ID) / 2 x h`` times the stacking factor, the iron fraction of the section. The
+thesis prints no tape thickness, so the stacking factor is a parameter of the geometry with
+a range (:data:`STACKING_FACTOR_RANGE`) around its nominal value (:data:`STACKING_FACTOR`):
+inductions and permeabilities derived from a fit scale as its inverse, and a fit does not
+determine it (the DF data are in winding units).
 """
 
 from __future__ import annotations
@@ -58,6 +56,7 @@ __all__ = [
     "A_PER_M_PER_OERSTED",
     "GAUSS_PER_TESLA",
     "STACKING_FACTOR",
+    "STACKING_FACTOR_RANGE",
     "INCH",
     "oersted_to_a_per_m",
     "a_per_m_to_oersted",
@@ -79,14 +78,18 @@ MU_0 = 4.0e-7 * math.pi
 A_PER_M_PER_OERSTED = 1000.0 / (4.0 * math.pi)
 #: Gauss per tesla.
 GAUSS_PER_TESLA = 1.0e4
-#: Stacking (space) factor of the tape-wound cores: iron section / gross section.
-#: An assumption: Appendix A prints no tape thickness. Manufacturers' tables for
-#: tape-wound nickel-iron cores give about 0.75 for 1-mil (25 um) tape, 0.83-0.85 for
-#: 2-mil and 0.90 for 4-mil tape; 2-mil tape is the usual gauge of such cores for
-#: audio-frequency and lower work, hence 0.85. ``A_e`` is proportional to it, so every
-#: flux density (B_p, B_r) and relative permeability derived from a fit scales as
-#: ``1 / stacking_factor`` (+13 % at 0.75, -6 % at 0.90; fields H do not depend on it).
+#: Nominal stacking (space) factor of the tape-wound cores: iron section / gross section.
+#: Appendix A prints no tape thickness. Manufacturers' tables for tape-wound nickel-iron
+#: cores (e.g. Magnetics Inc., *Tape Wound Cores* catalogue TWC-500, stacking factor by tape
+#: thickness) give about 0.50 for 1/2-mil (13 um) tape, 0.75 for 1-mil, 0.83-0.85 for 2-mil
+#: and 0.90 for 4-mil tape; 2-mil tape is the usual gauge of such cores for audio-frequency
+#: and lower work, hence 0.85. ``A_e`` is proportional to it, so every flux density (B_p,
+#: B_r) and relative permeability derived from a fit scales as ``1 / stacking_factor``
+#: (fields H and the squareness B_r/B_p do not depend on it).
 STACKING_FACTOR = 0.85
+#: The range of stacking factors a thesis core may have (the uniform prior of the
+#: parameter): the tapes of magnetic-amplifier cores, 1/2-mil to 4-mil, by the same tables.
+STACKING_FACTOR_RANGE = (0.50, 0.90)
 
 #: The material quantities of Appendix A that :func:`appendix_a_ranges` returns.
 APPENDIX_A_MATERIAL_QUANTITIES = (
@@ -152,8 +155,11 @@ class CoreGeometry:
     name : str
         Label (the Appendix A core name, or the user's).
     stacking_factor : float or None
-        Stacking factor used to get ``a_e`` from the gross section (a record only; None
-        when ``a_e`` was given directly).
+        Stacking factor used to get ``a_e`` from the gross section (None when ``a_e`` was
+        given directly).
+    stacking_range : tuple of float or None
+        ``(low, high)`` stacking factors the core may have (the parameter's range; the
+        material constants are reported over it). None, or ``low == high``: known.
 
     Notes
     -----
@@ -169,6 +175,7 @@ class CoreGeometry:
     r_winding_estimate: float | None = None
     name: str = ""
     stacking_factor: float | None = None
+    stacking_range: tuple[float, float] | None = None
 
     def __post_init__(self):
         for field_name in ("turns", "l_e", "a_e"):
@@ -176,6 +183,14 @@ class CoreGeometry:
             if not (np.isfinite(value) and value > 0):
                 raise OptionError(
                     f"core geometry: {field_name} must be a positive number, got {value!r}"
+                )
+        if self.stacking_range is not None:
+            low, high = self.stacking_range
+            sf = self.stacking_factor
+            if not (0 < low <= high <= 1) or (sf is not None and not low <= sf <= high):
+                raise OptionError(
+                    f"core geometry: stacking range {self.stacking_range!r} must lie in (0, 1] "
+                    f"and hold the stacking factor {sf!r}"
                 )
 
     @classmethod
@@ -187,6 +202,7 @@ class CoreGeometry:
         height,
         *,
         stacking_factor=STACKING_FACTOR,
+        stacking_range=None,
         r_winding_estimate=None,
         name="",
     ):
@@ -200,6 +216,9 @@ class CoreGeometry:
             Bare core dimensions (m), ``outside_diameter > inside_diameter``.
         stacking_factor : float
             Iron fraction of the gross section, in ``(0, 1]``; see :data:`STACKING_FACTOR`.
+        stacking_range : tuple of float, optional
+            The range the stacking factor may lie in, holding ``stacking_factor`` (None:
+            it is known).
         r_winding_estimate : float, optional
             Winding resistance (ohm) to carry along.
         name : str
@@ -227,6 +246,28 @@ class CoreGeometry:
             r_winding_estimate=None if r_winding_estimate is None else float(r_winding_estimate),
             name=str(name),
             stacking_factor=sf,
+            stacking_range=None if stacking_range is None else tuple(map(float, stacking_range)),
+        )
+
+    # --- the iron fraction ----------------------------------------------------------------
+    @property
+    def iron_fraction_spread(self) -> tuple[float, float]:
+        """``(low, high)`` multipliers of a derived induction or permeability over the stacking
+        range, relative to its value at :attr:`stacking_factor` (``B`` and ``mu_r`` scale as
+        ``1 / stacking_factor``): ``(sf / high, sf / low)``; ``(1, 1)`` when it is known."""
+        if self.stacking_range is None or self.stacking_factor is None:
+            return 1.0, 1.0
+        low, high = self.stacking_range
+        return self.stacking_factor / high, self.stacking_factor / low
+
+    def stacking_factor_for_induction(self, flux_linkage, induction):
+        """The stacking factor at which ``flux_linkage`` (V s) is the induction ``induction``
+        (T): ``lambda / (N A_gross B)``; None without a stacking factor (``a_e`` given)."""
+        if self.stacking_factor is None:
+            return None
+        gross = self.a_e / self.stacking_factor
+        return np.asarray(flux_linkage, dtype=float) / (
+            self.turns * gross * np.asarray(induction, dtype=float)
         )
 
     # --- scale factors -------------------------------------------------------------------
@@ -307,6 +348,7 @@ class CoreGeometry:
             "l_e_m": float(self.l_e),
             "a_e_m2": float(self.a_e),
             "stacking_factor": self.stacking_factor,
+            "stacking_range": None if self.stacking_range is None else list(self.stacking_range),
             "r_winding_estimate_ohm": self.r_winding_estimate,
             "field_a_per_m_per_ampere": float(self.field_per_ampere),
             "inductance_h_per_mu_r": float(self.inductance_per_permeability),
@@ -324,10 +366,25 @@ MATERIAL_LIMITS = {
     "current": ("field, A/m", 1.0e-3, 2.0, 1.0e3, 1.0),
     "flux_linkage": ("induction, T", 0.01, 0.7, 2.5, 1.0),
     "inductance_per_current": ("relative Rayleigh constant, m/A", 0.1, 1.0e4, 1.0e9, MU_0),
+    # Bertotti's dynamic-field coefficients (fitdf.chains.dynamic, whose docstring gives the
+    # sources): classical k_cl = sigma d^2 / 12 from 1e-7 S m (negligible; a 3 um tape is
+    # 1.3e-6) to 0.3 S m (a 0.36 mm tape at 2.2e6 S/m with an anomaly factor of 10), typical
+    # 1e-4 (1 mil Supermalloy, 8e-5); excess k_ex = (sigma G S V0)^(1/2) from 1e-4
+    # (negligible) to 10 A m^-1 (T/s)^-1/2 (0.36 x 25 mm tape, V0 = 10 A/m), typical 0.1
+    "conductance": ("classical eddy-current coefficient k_cl, S m", 1.0e-7, 1.0e-4, 0.3, 1.0),
+    "current_per_root_voltage": (
+        "excess-loss coefficient k_ex, A m^-1 (T/s)^-1/2",
+        1.0e-4,
+        0.1,
+        10.0,
+        1.0,
+    ),
 }
 
 
-def core_geometry(core: str, *, stacking_factor=STACKING_FACTOR) -> CoreGeometry:
+def core_geometry(
+    core: str, *, stacking_factor=STACKING_FACTOR, stacking_range="auto"
+) -> CoreGeometry:
     """Geometry of a thesis core from Appendix A (primary winding, bare core dimensions).
 
     Parameters
@@ -337,6 +394,9 @@ def core_geometry(core: str, *, stacking_factor=STACKING_FACTOR) -> CoreGeometry
     stacking_factor : float
         Iron fraction of the gross section; the default :data:`STACKING_FACTOR` (0.85)
         is an assumption, see there.
+    stacking_range : tuple of float, None or "auto"
+        The range it may lie in; ``"auto"`` (default): :data:`STACKING_FACTOR_RANGE` with
+        the nominal stacking factor, None (known) with one given.
 
     Returns
     -------
@@ -357,9 +417,18 @@ def core_geometry(core: str, *, stacking_factor=STACKING_FACTOR) -> CoreGeometry
         idia,
         h,
         stacking_factor=stacking_factor,
+        stacking_range=_stacking_range(stacking_factor, stacking_range),
         r_winding_estimate=winding_resistance_estimate(core),
         name=str(core).lower(),
     )
+
+
+def _stacking_range(stacking_factor, stacking_range):
+    """``stacking_range`` with ``"auto"`` resolved: the nominal range for the nominal factor,
+    None (known) for a stated one."""
+    if isinstance(stacking_range, str) and stacking_range == "auto":
+        return STACKING_FACTOR_RANGE if stacking_factor == STACKING_FACTOR else None
+    return stacking_range
 
 
 def appendix_a_ranges(core: str) -> dict[str, tuple[float, float | None, str]]:
@@ -483,6 +552,8 @@ def parse_geometry(text: str, name: str = "user core") -> CoreGeometry:
         _length("id", pairs["id"]),
         _length("height", pairs["height"]),
         stacking_factor=number("stacking") if "stacking" in pairs else STACKING_FACTOR,
+        # a stated stacking factor is known; without one, it lies in the range of tape cores
+        stacking_range=None if "stacking" in pairs else STACKING_FACTOR_RANGE,
         r_winding_estimate=number("r_winding") if "r_winding" in pairs else None,
         name=name,
     )

@@ -63,6 +63,8 @@ __all__ = [
     "SMALL_SIGNAL_RATIO",
     "RESISTANCE_TOLERANCE",
     "CHECK_QUANTITIES",
+    "DETERMINED_BY",
+    "implied_stacking_factor",
 ]
 
 #: Amplitude, relative to ``current_max``, at which ``Re N`` is taken as the small-signal limit.
@@ -83,6 +85,34 @@ CHECK_QUANTITIES = (
     "squareness_Br_over_Bp",
     "winding_resistance",
 )
+
+#: What a fit's data determine of each constant, as the constant depends on the two things
+#: DF data leave open: the iron fraction (inductions and permeabilities scale as its inverse,
+#: the squareness and fields do not) and, with data at one source impedance, the current
+#: scale (fields and permeabilities scale with it, flux linkages do not; :mod:`fitdf.data.cores`):
+#: ``quantity -> (depends on the iron fraction, depends on the current scale)``.
+_DEPENDS = {
+    "initial_permeability": (True, True),
+    "maximum_permeability": (True, True),
+    "coercive_force_Hc": (False, True),
+    "peak_flux_density_Bp": (True, False),
+    "residual_induction_Br": (True, False),
+    "squareness_Br_over_Bp": (False, False),
+    "winding_resistance": (False, True),
+}
+#: The sentence for each combination (iron fraction, current scale left open).
+DETERMINED_BY = {
+    (False, False): "by the data",
+    (True, False): "by the data up to the iron fraction",
+    (False, True): "by the series-resistance prior (one source impedance: the current scale)",
+    (True, True): "by the series-resistance prior and up to the iron fraction",
+}
+
+
+def _determined(quantity, joint: bool) -> str:
+    iron, scale = _DEPENDS[quantity]
+    return DETERMINED_BY[(iron, scale and not joint)]
+
 
 # Amplitude grid of the maximum-permeability search: a geometric first pass over
 # [SMALL_SIGNAL_RATIO, 1] current_max, then linear refinements of the best bracket.
@@ -388,7 +418,36 @@ def material_constants(
     )
 
 
-def appendix_a_check(constants, ranges, *, resistance_tolerance=RESISTANCE_TOLERANCE) -> list[dict]:
+def implied_stacking_factor(constants, ranges) -> dict | None:
+    """The stacking factors at which the fitted peak flux linkage lies in the Appendix A
+    ``B_p`` range: ``{"low", "high", "range", "consistent"}``; ``consistent`` says whether it
+    overlaps the geometry's stacking range. None without a stacking factor or a ``B_p``
+    range, or when the fit has no peak flux.
+
+    ``lambda_p / (N A_gross B_p)`` over the printed ``B_p`` range: the DF data determine the
+    peak flux linkage (it is invariant under the current scale), so this is what the data
+    and Appendix A together say of the iron fraction.
+    """
+    geometry = constants.geometry
+    bp = ranges.get("peak_flux_density_Bp")
+    lam = constants.peak_flux_linkage_vs
+    if bp is None or geometry.stacking_factor is None or not (math.isfinite(lam) and lam > 0):
+        return None
+    low_b, high_b = (float(v) / 1e4 if v is not None else math.inf for v in bp[:2])  # gauss -> T
+    low = float(geometry.stacking_factor_for_induction(lam, high_b))
+    high = float(geometry.stacking_factor_for_induction(lam, low_b))
+    allowed = geometry.stacking_range or (geometry.stacking_factor, geometry.stacking_factor)
+    return {
+        "low": low,
+        "high": high,
+        "range": [float(allowed[0]), float(allowed[1])],
+        "consistent": bool(low <= allowed[1] and high >= allowed[0]),
+    }
+
+
+def appendix_a_check(
+    constants, ranges, *, resistance_tolerance=RESISTANCE_TOLERANCE, joint=False
+) -> list[dict]:
     """Compare fitted material constants with the Appendix A ranges.
 
     Parameters
@@ -403,22 +462,31 @@ def appendix_a_check(constants, ranges, *, resistance_tolerance=RESISTANCE_TOLER
     resistance_tolerance : float
         Relative half-width of the accepted band around the winding-resistance estimate:
         ``estimate * (1 -+ 0.3)`` by default, the estimate's own stated accuracy.
+    joint : bool
+        The fit's data span two source impedances, which fixes the current scale.
 
     Returns
     -------
     list of dict
-        One ``{quantity, fitted, low, high, unit, inside}`` per quantity of
-        :data:`CHECK_QUANTITIES` that ``ranges`` covers, in that order; ``fitted``, ``low``
-        are plain floats (``fitted`` NaN where the loop does not define it, e.g. no
-        coercive force), ``high`` a float or None, ``inside`` a bool: ``low <= fitted <=
-        high`` with both edges included, False for NaN. The ``winding_resistance`` row
-        appears only when both a fitted value and an estimate (or range) are known.
+        One ``{quantity, fitted, low, high, unit, inside, fitted_low, fitted_high,
+        inside_range, determined}`` per quantity of :data:`CHECK_QUANTITIES` that ``ranges``
+        covers, in that order; ``fitted``, ``low`` are plain floats (``fitted`` NaN where the
+        loop does not define it, e.g. no coercive force), ``high`` a float or None,
+        ``inside`` a bool: ``low <= fitted <= high`` with both edges included, False for
+        NaN. ``fitted_low``/``fitted_high`` span the value over the geometry's stacking
+        range (equal to ``fitted`` for the constants that do not depend on it, and for a
+        mapping without a geometry), ``inside_range`` whether that span meets the Appendix A
+        range, and ``determined`` says what fixes the value (:data:`DETERMINED_BY`). The
+        ``winding_resistance`` row appears only when both a fitted value and an estimate (or
+        range) are known.
     """
     values = (
         constants.appendix_a_values()
         if hasattr(constants, "appendix_a_values")
         else dict(constants)
     )
+    geometry = getattr(constants, "geometry", None)
+    spread = (1.0, 1.0) if geometry is None else geometry.iron_fraction_spread
     ranges = dict(ranges)
     if "winding_resistance" not in ranges:
         est = values.get("winding_resistance_estimate")
@@ -441,6 +509,8 @@ def appendix_a_check(constants, ranges, *, resistance_tolerance=RESISTANCE_TOLER
         low = float(low)
         high = None if high is None or not math.isfinite(float(high)) else float(high)
         inside = bool(math.isfinite(fitted) and low <= fitted and (high is None or fitted <= high))
+        f_low, f_high = (fitted * m for m in spread) if _DEPENDS[quantity][0] else (fitted,) * 2
+        meets = bool(math.isfinite(fitted) and f_high >= low and (high is None or f_low <= high))
         rows.append(
             {
                 "quantity": quantity,
@@ -449,6 +519,10 @@ def appendix_a_check(constants, ranges, *, resistance_tolerance=RESISTANCE_TOLER
                 "high": high,
                 "unit": str(unit),
                 "inside": inside,
+                "fitted_low": f_low,
+                "fitted_high": f_high,
+                "inside_range": meets,
+                "determined": _determined(quantity, joint),
             }
         )
     return rows
@@ -493,7 +567,10 @@ def material_record(result) -> dict | None:
     None when the fit has no core geometry or its chain is not in winding units (the
     check is then absent, not invented). ``current_max`` is the largest peak winding
     current the fitted chain predicts at the data points; a frequency-dependent law is
-    evaluated at the lowest data frequency.
+    evaluated at the lowest data frequency. ``constants`` carries, besides
+    :meth:`MaterialConstants.to_dict`, the ``implied_stacking_factor``
+    (:func:`implied_stacking_factor`, None without Appendix A ranges); the check says what
+    the data determine, with ``joint`` when the rows span two source impedances.
     """
     problem = result.problem
     geometry = problem.geometry
@@ -514,11 +591,15 @@ def material_record(result) -> dict | None:
         ranges = appendix_a_ranges(data.core) if data.core else None
     except OptionError:  # a user's core: no catalogue ranges to compare with
         ranges = None
+    joint = np.unique(np.asarray(data.source_impedance, float)).size > 1
+    implied = None if ranges is None else implied_stacking_factor(constants, ranges)
     return clean(
         {
             "core": data.core,
-            "constants": constants.to_dict(),
-            "appendix_a_check": None if ranges is None else appendix_a_check(constants, ranges),
+            "constants": {**constants.to_dict(), "implied_stacking_factor": implied},
+            "appendix_a_check": None
+            if ranges is None
+            else appendix_a_check(constants, ranges, joint=joint),
         }
     )
 
