@@ -61,8 +61,8 @@ PERMALLOY_LIKE = dict(lambda_s=0.06, a=2.9e-4, k=2.9e-4, c=0.2, zeta=0.5)
 REFERENCE = (1e-11, 96)
 CANDIDATES = [(1e-8, 24), (3e-8, 24), (1e-7, 24), (1e-7, 16), (3e-7, 16), (1e-6, 24), (1e-6, 12)]
 BRANCH_LIMIT = 2e-5
-#: The least-squares fits of the committed report (reports/results.json): the core, then
-#: ``(lambda_s, a, k, c, zeta, r_winding)``; ``zeta`` sits at its bound 0.99 in most.
+#: Fixed inputs of the timings: least-squares Jiles-Atherton fits of each report block (taken
+#: when zeta was bounded at 0.99), the core, then ``(lambda_s, a, k, c, zeta, r_winding)``.
 REPORT_FITS = {
     "B.1": ("permalloy", (0.044227, 3.68e-4, 8.72e-4, 0.163991, 0.99, 53.61)),
     "B.3": ("permalloy", (0.040635, 3.24e-4, 4.54e-4, 0.114519, 0.99, 53.76)),

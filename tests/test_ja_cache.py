@@ -28,7 +28,7 @@ def draws(n, seed):
             10 ** rng.uniform(-4, -2, n),
             10 ** rng.uniform(-4, -2, n),
             rng.uniform(0.05, 0.5, n),
-            rng.uniform(0.1, 0.99, n),
+            rng.uniform(0.1, 1.0, n),  # zeta, up to its bound
         ]
     )
     lo = np.array([p.internal_bounds[0] for p in JilesAtherton.params])

@@ -67,8 +67,9 @@ def coupling(*, lambda_s, a, zeta, **_):
 def anhysteretic(x, *, lambda_s, a, zeta, **_):
     """Anhysteretic flux linkage: ``lambda = lambda_s L((x + alpha lambda)/a)`` solved for ``lambda``.
 
-    Single-valued for ``zeta < 1``; solved by bisection on ``[-lambda_s, lambda_s]`` (the right
-    side minus ``lambda`` is then decreasing). It is the ``k -> 0`` (and ``c -> 1``) limit of the loop.
+    Single-valued for ``zeta <= 1`` (the bounds; at ``zeta = 1`` its slope at the origin is
+    infinite); solved by bisection on ``[-lambda_s, lambda_s]`` (the right side minus
+    ``lambda`` is then decreasing). It is the ``k -> 0`` (and ``c -> 1``) limit of the loop.
     """
     al = coupling(lambda_s=lambda_s, a=a, zeta=zeta)
     x, lam, a_, al = np.broadcast_arrays(

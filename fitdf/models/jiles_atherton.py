@@ -20,26 +20,38 @@ section ``A_e``, ``H = N i / l_e`` and the output is ``lambda = mu_0 N A_e M`` (
 with the parameters::
 
     lambda_s = mu_0 N A_e M_s (V s),   a = a_JA l_e / N,   k = k_JA l_e / N (A),
-    c = c_JA,   zeta = alpha_JA M_s / (3 a_JA),
+    c = c_JA,   zeta = alpha_JA M_s / (3 a_JA),   0 <= zeta <= 1,
 
 so that ``i_e = i + alpha lambda`` with ``alpha = 3 zeta a / lambda_s`` (:func:`coupling`).
-``zeta < 1`` (no spontaneous magnetisation) is a fixed box bound, where a bound on
-``alpha`` would depend on ``a`` and ``lambda_s``. :func:`steady_loop`, :func:`loop_figures`
-and :func:`ja_describing_function` give the steady loop, its coercive current and
-remanence, and its describing function; any consistent units work (:data:`JA_1986`, the
-published parameter set, is in SI).
+``zeta <= 1`` (no spontaneous magnetisation of the anhysteretic) is a fixed box bound, where
+a bound on ``alpha`` would depend on ``a`` and ``lambda_s``. The anhysteretic initial
+susceptibility, in winding units the inductance ``(lambda_s / 3a) / (1 - zeta)``, diverges
+at ``zeta = 1`` (there ``M_an ~ H^(1/3)`` near the origin), and the bound is that limit
+itself: the steady loop and its describing function are smooth through ``zeta = 1``, linear
+in ``1 - zeta`` near it (``|N(1 - eps) - N(1)|`` is 0.8 to 33 ``eps |N|`` at the thesis
+fits, the same for ``eps`` from 1e-2 to 1e-6), and computed there as accurately as anywhere
+(within 6e-7 of ``|N|`` of an independent DOP853 integration of the equations, tests), so
+``zeta`` is fitted on a linear scale up to 1. On a log scale of the margin ``1 - zeta`` (or
+of the susceptibility) ``dN/d log(1 - zeta)`` is proportional to ``1 - zeta``: the fit's
+Jacobian column would vanish toward the limit. A fit that reaches ``zeta = 1`` wants at
+least the largest mean field a single-valued anhysteretic allows and bounds the
+susceptibility only from below (:meth:`JilesAtherton.limit_warnings`). :func:`steady_loop`,
+:func:`loop_figures` and :func:`ja_describing_function` give the steady loop, its coercive
+current and remanence, and its describing function; any consistent units work
+(:data:`JA_1986`, the published parameter set, is in SI).
 
 Notes
 -----
 The 1986 paper's ``dM_irr/dH = (M_an - M_irr) / (delta k - alpha (M_an - M_irr))`` is this
 model with the mean field fed by ``M_irr`` instead of ``M`` (the two agree for ``c = 0``).
 After a reversal ``chi_irr`` stays 0 until ``M_an`` catches up with ``M_irr`` (the usual
-fix of negative susceptibility), and for ``zeta < 1`` the slope ``dM/dH`` is positive and
-bounded, so the singular, negative or "avalanche" slopes of the H-form cannot occur (for
-``zeta >= 1`` a fold of ``H(H_e)`` becomes a vertical jump). Over each step ``M_an`` is
-replaced by its cubic Hermite interpolant and the irreversible equation, a linear
-relaxation of length ``k``, is integrated exactly for it (an exponential integrator), with
-steps that keep the error of ``M`` below ``tol lambda_s``; the branch is kept as its nodes
+fix of negative susceptibility), and for ``zeta <= 1`` the slope ``dM/dH`` is positive and
+finite (at most ``(M_s/3a)/(1 - zeta)`` below 1), so the singular, negative or "avalanche"
+slopes of the H-form cannot occur (for ``zeta > 1``, outside the bounds, a fold of
+``H(H_e)`` becomes a vertical jump). Over each step ``M_an`` is replaced by its cubic
+Hermite interpolant and the irreversible equation, a linear relaxation of length ``k``, is
+integrated exactly for it (an exponential integrator), with steps that keep the error of
+``M`` below ``tol lambda_s``; the branch is kept as its nodes
 ``(H_e, M, dM/dH_e)``. The symmetric steady loop of peak ``A`` is the fixed point of the
 half cycle, found by a safeguarded secant iteration. The describing function,
 ``N = (2/(pi A^2)) Int y_up'(x) [sqrt(A^2 - x^2) - j x] dx`` (eqs 2.1, 2.2 integrated by
@@ -100,6 +112,11 @@ JA_1986 = {
 }
 
 
+#: ``zeta`` this close to 1 counts as the limit ``zeta = 1`` in
+#: :meth:`JilesAtherton.limit_warnings` (the bound warnings' 1e-3 of the box's width).
+ZETA_LIMIT_WITHIN = 1e-3
+
+
 def steady_loop(amplitude, *, lambda_s, a, k, c, zeta, tol=_TOL, n_min=_NMIN, n_out=4):
     """Samples of the ascending branch of the steady loop of peak ``amplitude`` (scalars).
 
@@ -118,7 +135,7 @@ def steady_loop(amplitude, *, lambda_s, a, k, c, zeta, tol=_TOL, n_min=_NMIN, n_
     -------
     x, y : numpy.ndarray
         From ``(-A, -lambda_tip)`` to ``(A, lambda_tip)``; ``x`` non-decreasing (equal at a
-        jump, only for ``zeta >= 1``), ``y`` non-decreasing. The descending branch is
+        jump, only for ``zeta > 1``), ``y`` non-decreasing. The descending branch is
         ``(-x[::-1], -y[::-1])``.
     """
     alpha = float(coupling(lambda_s=lambda_s, a=a, zeta=zeta))
@@ -261,13 +278,37 @@ class JilesAtherton(HysteresisModel):
         ParamSpec(
             "zeta",
             0.5,
-            (0.0, 0.99),
+            (0.0, 1.0),
             "",
-            "mean-field ratio alpha_JA M_s / 3 a_JA (< 1: no spontaneous magnetisation)",
+            "mean-field ratio alpha_JA M_s / 3 a_JA (<= 1: no spontaneous magnetisation)",
             "JA alpha",
             log=False,
         ),
     )
+
+    @classmethod
+    def limit_warnings(cls, amplitude, *, lambda_s, a, zeta, **_):
+        """At ``zeta = 1`` (within :data:`ZETA_LIMIT_WITHIN`): what the data leave open.
+
+        ``zeta = 1`` is the largest mean field with a single-valued anhysteretic (no
+        spontaneous magnetisation). There the anhysteretic initial susceptibility, in winding
+        units the inductance ``(lambda_s / 3a) / (1 - zeta)`` (the Langevin anhysteretic with
+        the Weiss mean field of Jiles & Atherton 1986, module docstring, linearised at the
+        origin), diverges, and a fit that ends there bounds it only from below, by its value
+        at the lower end of ``zeta``'s interval. The bound warning says that ``zeta`` is on
+        its bound; this says what that means.
+        """
+        zeta = float(np.max(zeta))
+        if zeta < 1.0 - ZETA_LIMIT_WITHIN:
+            return []
+        slope = float(np.max(np.asarray(lambda_s, float) / (3.0 * np.asarray(a, float))))
+        return [
+            f"zeta = {zeta:.6g} is at its limit 1, the largest mean field with a single-valued "
+            "anhysteretic (no spontaneous magnetisation): there the anhysteretic initial "
+            f"susceptibility (lambda_s/3a)/(1 - zeta), lambda_s/3a = {slope:.4g} H in winding "
+            "units, diverges, and the data determine only a lower bound on it, "
+            f"{slope:.4g} H/(1 - zeta_lo) with zeta_lo the lower end of zeta's interval"
+        ]
 
     @classmethod
     def ascending_branch(cls, x, amplitude, frequency=0.0, *, lambda_s, a, k, c, zeta):
