@@ -142,6 +142,19 @@ def _signals_held():
             signal.raise_signal(sig)
 
 
+class _NoDisplay:
+    """The display of an :class:`Executor` without one: hears every job, shows nothing."""
+
+    def begin(self, desc, keys, cached):
+        pass
+
+    def started(self, key):
+        pass
+
+    def finished(self, key, seconds):
+        pass
+
+
 class Executor:
     """Runs dicts of keyed jobs; a context manager (leaving it stops the workers).
 
@@ -152,12 +165,18 @@ class Executor:
     scheduler : str or None
         Address of a Dask distributed scheduler (``tcp://host:8786``); None runs locally.
     progress : bool
-        A tqdm bar per :meth:`run` on stderr.
+        A tqdm bar per :meth:`run` on stderr (unless a ``display`` shows the progress).
     cache : JobCache or None
         Where finished jobs are kept and looked up (None: every job runs).
 
     Attributes
     ----------
+    display : object or None
+        One progress display for several runs instead of a bar per run (e.g.
+        :class:`fitdf.report.progress.RunProgress`): told ``begin(desc, keys, cached)`` when
+        a run starts (``cached``: the keys taken from the cache), ``started(key)`` when a job
+        goes to a worker and ``finished(key, seconds)`` when it is done. On a cluster a job
+        counts as started when an earlier one finishes (the scheduler does not say when).
     seconds : dict
         Run time of every job so far, under its key joined by spaces (for a job taken from
         the cache, the time it took when it ran).
@@ -186,6 +205,7 @@ class Executor:
         self.cache = cache
         self.seconds = {}
         self.reused = []
+        self.display = None
         self._procs = []  # (process, connection) of the local workers
         self._client = None
         self._dask = None  # the distributed module, on a cluster
@@ -268,33 +288,37 @@ class Executor:
                     out[key] = value
                     self.reused.append(" ".join(map(str, key)))
         todo = {key: job for key, job in jobs.items() if key not in out}
+        display = self.display or _NoDisplay()
+        display.begin(desc, list(jobs), [key for key in jobs if key in out])
 
         def finished(key, value):
             out[key] = value
             if self.cache is not None:
                 self.cache.put(digests[key], value)
             bar.update(1)
+            display.finished(key, value[1])
 
         with tqdm(
             total=len(jobs),
             initial=len(jobs) - len(todo),
             desc=desc,
             file=sys.stderr,
-            disable=not self.progress,
+            disable=not self.progress or self.display is not None,
             leave=True,
         ) as bar:
             if self._client is not None:
-                self._run_dask(todo, finished)
+                self._run_dask(todo, display.started, finished)
             elif self._procs:
-                self._run_local(todo, finished)
+                self._run_local(todo, display.started, finished)
             else:
                 for key, (fn, args) in todo.items():
+                    display.started(key)
                     finished(key, timed(fn, *args))
         for key in jobs:
             self.seconds[" ".join(map(str, key))] = round(out[key][1], 2)
         return {key: out[key][0] for key in jobs}
 
-    def _run_local(self, jobs: dict, finished) -> None:
+    def _run_local(self, jobs: dict, started, finished) -> None:
         todo = iter(jobs.items())
         idle = [conn for _, conn in self._procs]
         busy = {}  # connection -> key of the job it runs
@@ -304,6 +328,7 @@ class Executor:
                 conn = idle.pop()
                 conn.send((fn, *args))
                 busy[conn] = key
+                started(key)
             if not busy:
                 return
             for conn in wait(list(busy)):
@@ -317,11 +342,16 @@ class Executor:
                 finished(key, reply[1])
                 idle.append(conn)
 
-    def _run_dask(self, jobs: dict, finished) -> None:
+    def _run_dask(self, jobs: dict, started, finished) -> None:
         self._futures = [
             self._client.submit(timed, fn, *args, pure=False) for fn, args in jobs.values()
         ]
         keys = {fut.key: key for fut, key in zip(self._futures, jobs)}
+        waiting = iter(jobs)  # started as the cluster's workers free up (an estimate)
+        for _, key in zip(range(self.workers), waiting):  # (range first: no key is lost)
+            started(key)
         for fut in self._dask.as_completed(self._futures, loop=self._client.loop):
             finished(keys[fut.key], fut.result())
+            if (key := next(waiting, None)) is not None:
+                started(key)
         self._futures = []

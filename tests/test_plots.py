@@ -19,6 +19,7 @@ from fitdf.plots import (
     plot_fit,
     plot_residuals,
 )
+from fitdf.plots._panels import law_label
 
 #: The figures draw a fit whatever chain it went through: the cheap one (the fixtures took
 #: ~15 s through the exact voltage chain on 2 cores).
@@ -77,8 +78,13 @@ def test_plot_fit_panels_labels_and_curves(b1):
         assert len(lines) == 3  # two model curves + measured points
         assert max(len(ln.get_xdata()) for ln in lines) > 50  # smooth curves, not just the rows
     assert "Permalloy" in fig.get_suptitle() and "B.1" in fig.get_suptitle()
-    labels = [t.get_text() for t in fig.legends[0].get_texts()]
-    assert "proportional_width" in labels and "constant_width" in labels
+    # every law named by its title beside its code name (the lines wrapped to the figure)
+    labels = [" ".join(t.get_text().split()) for t in fig.legends[0].get_texts()]
+    for law in ("proportional_width", "constant_width"):
+        assert law_label(law) in labels
+    assert law_label("constant_width") == (
+        "Piecewise-linear loop of constant width (backlash with saturation) [constant_width]"
+    )
     assert _png(fig)[:4] == b"\x89PNG"
 
 
@@ -170,6 +176,53 @@ def test_plot_corner(posterior, b1):
     assert _png(fig)[:4] == b"\x89PNG"
     with pytest.raises(TypeError, match="PosteriorResult"):
         plot_corner(b1[0])
+
+
+def _text_boxes_overlapping(fig):
+    """Pairs of the corner plot's texts (histogram titles, axis labels, suptitle, key) and
+    panels whose boxes overlap, and the texts that leave the figure."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    P = round(np.sqrt(len(fig.axes)))
+    axes = np.asarray(fig.axes).reshape(P, P)
+    shown = [axes[i, j] for i in range(P) for j in range(i + 1)]  # the lower triangle
+    texts = [fig._suptitle, fig.texts[-1]]
+    texts += [axes[i, i]._left_title for i in range(P)]
+    texts += [a.xaxis.label for a in axes[-1]] + [a.yaxis.label for a in axes[1:, 0]]
+    boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in texts if t.get_text()]
+    panels = [(f"panel {a.get_subplotspec().get_geometry()}", a.get_window_extent()) for a in shown]
+    clash = [
+        (n1, n2)
+        for k, (n1, b1) in enumerate(boxes)
+        for n2, b2 in boxes[k + 1 :] + panels
+        if b1.overlaps(b2)
+    ]
+    outside = [n for n, b in boxes if not fig.bbox.contains(b.x0, b.y0) or b.x1 > fig.bbox.x1]
+    return clash, outside
+
+
+def test_corner_texts_do_not_overlap(posterior, b1):
+    """A 5-parameter posterior (the law's 3, the winding resistance, the gain): the titles
+    (parameter, then median and spread), the axis labels, the suptitle and the key below the
+    panels overlap nothing, and stay in the figure."""
+    fig = plot_corner(posterior, truths=b1[0])
+    P = posterior.problem.ndim
+    assert 4 <= P <= 6
+    assert fig.get_figwidth() == pytest.approx(1.05 + 1.5 * P + 0.2)
+    clash, outside = _text_boxes_overlapping(fig)
+    assert clash == [] and outside == []
+    titles = [fig.axes[i * P + i].get_title(loc="left") for i in range(P)]
+    assert titles[0].splitlines()[0] == fig.axes[(P - 1) * P].get_xlabel()
+    lo, mid, hi = np.percentile(
+        posterior.problem.specs[0].from_internal(posterior.flat_internal(4000, seed=0)[:, 0])
+        if not posterior.problem.specs[0].log
+        else posterior.flat_internal(4000, seed=0)[:, 0],
+        [16, 50, 84],
+    )
+    assert titles[0].splitlines()[1].split()[0] == f"{mid:.3g}"
+    key = fig.texts[-1].get_text()
+    assert "16th, 50th and 84th percentiles" in key and "least-squares optimum" in key
+    assert law_label(posterior.model) in fig.get_suptitle()
 
 
 def test_plot_cross_impedance(b1):

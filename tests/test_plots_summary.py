@@ -9,7 +9,7 @@ import pytest
 from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 
-from fitdf.plots.summary import CAPTION, constant_rows, plot_summary, residual_grid
+from fitdf.plots.summary import CAPTION, NOTE, constant_rows, plot_summary, residual_grid
 
 _BEST_FRAME = "#d62728"
 
@@ -153,7 +153,9 @@ def test_constants_panel_one_row_per_core_and_quantity(record):
     panels = fig.axes[2:]  # grid, colour bar, then one panel per quantity
     assert len(panels) == 3
     assert [a.get_xscale() for a in panels] == ["log", "log", "linear"]
-    assert panels[0].get_title(loc="left") == "initial permeability (gauss/oersted)"
+    # (*): the constants a single source impedance leaves to the winding resistance (the note)
+    assert panels[0].get_title(loc="left") == "initial permeability (gauss/oersted) (*)"
+    assert panels[2].get_title(loc="left") == "squareness $B_r/B_p$"
     # the zero initial permeability (joint fit) is drawn at the left edge, its value written
     assert any(t.get_text() == "0" for t in panels[0].texts)
     # filled markers inside the range, open ones outside
@@ -184,3 +186,42 @@ def test_empty_record_is_refused():
 def test_caption_is_one_sentence_about_the_colours():
     assert CAPTION.count(". ") == 0 and CAPTION.endswith(".")
     assert "colour" in CAPTION and "Appendix A" in CAPTION
+    assert "outside it (the fitted constant lies outside the catalogue range" in CAPTION
+
+
+def test_the_figure_says_what_outside_means_and_what_the_data_leave_open(record):
+    """The note under the constants panels defines "outside" and names what one source
+    impedance leaves open; a constant the fit does not determine is grey, not red."""
+    perm = record["blocks"]["B.1"]["fits_lsq"]["rayleigh"]
+    perm["material"] = {"initial_converged": False, "maximum_at_edge": False}
+    rows = constant_rows(record)
+    mu_i = next(r for r in rows if r["quantity"] == "initial_permeability")
+    assert [f["determined"] for f in mu_i["fits"]] == [False, True]  # B.1's, the joint fit's
+    fig = plot_summary(record)
+    legend = fig.subfigs[1].legends[0]
+    note = " ".join(legend.get_title().get_text().split())
+    assert note == " ".join(NOTE.split())
+    assert note.startswith(
+        "Outside: the fitted constant lies outside the Appendix A catalogue range of the core's "
+        "material"
+    )
+    assert "trade against the winding resistance" in note and "lower bound" in note
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert {"inside the range", "outside it", "not determined", "Appendix A range"} <= set(labels)
+    # B.1's undetermined initial permeability (2000, below the range): an open grey marker
+    panel = fig.axes[2]
+    marks = [ln for ln in panel.get_lines() if ln.get_marker() in ("o", "s", "D")]
+    b1 = next(ln for ln in marks if ln.get_xdata()[0] == 2.0e3)
+    assert b1.get_markerfacecolor() == "white" and b1.get_markeredgecolor() == "0.45"
+
+
+def test_laws_are_named_beside_their_code_names(record):
+    record["models"] = [
+        {"name": "rayleigh", "title": "Rayleigh parabolic loop with Frohlich-Kennelly saturation"}
+    ]
+    fig = plot_summary(record)
+    ticks = [t.get_text() for t in fig.axes[0].get_yticklabels()]
+    grid = residual_grid(record)
+    i = grid.laws.index("rayleigh")
+    assert ticks[i] == "Rayleigh parabolic loop\nwith Frohlich-Kennelly\nsaturation\n[rayleigh]"
+    assert ticks[grid.laws.index("cubic_hc")] == "cubic_hc"  # a law the record does not describe

@@ -7,17 +7,20 @@ import os
 import re
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import pytest
 from tiny_settings import TINY
 
+import fitdf.report.block_outline as block_outline
 import fitdf.report.outline as outline
 import fitdf.report.render as render
 import fitdf.report.sections as sections
 from fitdf.machine import machine_record, same_machine
 from fitdf.plots.summary import CAPTION, constant_rows, plot_summary, residual_grid
+from fitdf.report import costs
 from fitdf.report.build import BLOCKS, ReportSettings, generate_report
 
 TESTS = Path(__file__).resolve().parent
@@ -585,3 +588,97 @@ def test_settings_line_names_the_laws_with_more_starts():
     assert "rayleigh" not in line
     (_, items), *_ = outline._settings_text({**res, "models": models[1:]})
     assert "(" not in next(i for i in items if i.startswith("least squares")).split(";")[0]
+
+
+# ------------------------------------------------------------------ what the report says
+
+
+def _findings_section(md: str) -> tuple[str, list[str]]:
+    """The conclusion (the section's first paragraph) and the statements of "Findings"."""
+    body = md.split("## Findings\n\n", 1)[1].split("\n## ", 1)[0]
+    paragraphs = body.split("\n\n")
+    return paragraphs[0], [ln[2:] for ln in body.splitlines() if ln.startswith("- ")]
+
+
+def _sentences(text: str) -> list[str]:
+    return [s for s in re.split(r"(?<=[.])\s+(?=[A-Z0-9`])", text.strip()) if s]
+
+
+#: Words of a development history, not of a report (a "pass" of work, an issue number).
+_HISTORY = re.compile(r"\bpass(es|ed)?\b|#\d+|\bissues?\b|\bitem \d|\bPR\b", re.I)
+
+
+@pytest.mark.skipif(not COMMITTED.exists(), reason="no committed reports/results.json")
+def test_findings_open_with_a_conclusion_from_the_numbers():
+    """The committed report re-rendered from its results.json (no refit): "Findings" opens
+    with a short conclusion whose every number comes from the record."""
+    res = json.loads(COMMITTED.read_text())
+    md = render.render_markdown(res)
+    text, statements = _findings_section(md)
+    assert 3 <= len(_sentences(text)) <= 6, _sentences(text)
+    names = {m["name"]: f"{m['title']} `{m['name']}`" for m in res["models"]}
+    blocks = res["blocks"].values()
+    # which law to use: each block's best by RMS complex residual, named as a person would
+    winners = {rec["order_lsq"][0] for rec in blocks}
+    if len(winners) == 1:
+        (w,) = winners
+        assert text.startswith(f"Use {names[w]} for all 3 cores")
+    # the error to expect: the RMS complex residual over the RMS measured |DF| of each table
+    for rec in blocks:
+        best = rec["order_lsq"][0]
+        df = np.asarray(rec["fits_lsq"][best]["rows"]["df_measured"], float)
+        pct = 100 * rec["ranking_lsq"][0]["rms_complex"] / np.sqrt(np.mean(df**2))
+        assert f"{pct:.1f} %" in text, (rec["key"], pct)
+    # what the data cannot decide: ties of the best law, chains that did not converge,
+    # constants outside Appendix A
+    for rec in blocks:
+        for other in (rec["ranking_mcmc"][0].get("indistinguishable_from") or "").split(","):
+            if other.strip():
+                assert f"`{other.split('/')[0].strip()}`" in text
+    chains = [f["diagnostics"]["converged"] for rec in blocks for f in rec["fits_mcmc"].values()]
+    assert f"{chains.count(False)} of {len(chains)} MCMC chains did not converge" in text
+    checks = [c for rec in blocks for c in rec["fits_lsq"][rec["order_lsq"][0]]["appendix_a_check"]]
+    outside = sum(not c["inside"] for c in checks)
+    assert f"{outside} of the {len(checks)} material constants of the best fits lie outside" in text
+    assert "trade against the winding resistance" in text and "lower bound" in text
+    # the statements below do not repeat the winners' list, and name laws by title and code
+    assert not any(s.startswith("Best model per block") for s in statements)
+    assert statements[0].startswith(f"**{res['blocks']['B.1']['title']}**: {names['preisach']}")
+    assert not _HISTORY.search(text + " ".join(statements))
+
+
+def test_the_tiny_report_concludes_and_names_its_law(tiny_report, tiny_results):
+    md = (tiny_report / "README.md").read_text()
+    text, statements = _findings_section(md)
+    title = tiny_results["models"][0]["title"]
+    label = f"{title} `proportional_width`"
+    assert text.startswith(f"Only {label} was fitted here, to Permalloy")
+    assert 3 <= len(_sentences(text)) <= 6
+    assert "2 of 2 MCMC chains did not converge" in text  # 15-step chains
+    # laws named by title and code name in the tables and headings too
+    assert f"| {label} |" in md  # the summary and ranking tables
+    assert f"**{label}** (least squares, best of this method):" in md
+    # every caption and statement is about the results, not about how the code was made
+    assert not _HISTORY.search(md)
+    for caption in (
+        CAPTION,
+        outline.CROSS_CAPTION,
+        block_outline.FIT_CAPTION,
+        block_outline.LOCI_CAPTION,
+        block_outline.RESIDUALS_CAPTION,
+        block_outline.CORNER_CAPTION,
+    ):
+        assert md.count(caption) >= 1, caption
+
+
+def test_the_plan_of_a_run_counts_the_jobs_and_figures_it_made(tiny_report, tiny_results):
+    """What the opening lines announce and the progress display plans is what the run did:
+    as many jobs of each kind, as many figures."""
+    models, blocks = TINY.model_list(), [b.key for b in TINY.block_list()]
+    lsq = [(b, m) for b in blocks for m in models]
+    phases, what = costs.plan(TINY, models, blocks, lsq, {}, costs.phase_labels(TINY))
+    planned = Counter(kind for p in phases for kind, _ in p.planned)
+    ran = Counter(costs.job_kind(k) for k in tiny_results["timing"]["jobs_s"])
+    assert planned == ran and ran["mcmc"] == 2 and ran["figures"] == 4
+    pngs = list((tiny_report / "figures").rglob("*.png"))
+    assert what[-1] == f"up to {len(pngs)} figures"  # every block's best law was sampled

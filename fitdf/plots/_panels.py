@@ -8,7 +8,12 @@ results are drawn in the order given, with colours ``C0, C1, ...``; the first on
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
+
+from fitdf.errors import ModelError
+from fitdf.models import get_model
 
 MAG_LABEL = "|DF| (V/V)"
 PHASE_LABEL = "phase lead (deg)"
@@ -26,10 +31,24 @@ def _as_list(results):
     return out
 
 
-def _label(result, results):
-    """Legend label: the model, plus the method when methods are mixed."""
+def law_label(name: str, width: int | None = None) -> str:
+    """A law's human name beside its code name, ``Title [code]`` (the law's ``title``); the
+    code name alone for a law not registered. ``width``: wrap the title to lines of that
+    many characters, the code name on a line of its own."""
+    try:
+        title = get_model(name).title
+    except ModelError:
+        return str(name)
+    if width is None:
+        return f"{title} [{name}]"
+    return "\n".join([*textwrap.wrap(title, width), f"[{name}]"])
+
+
+def _label(result, results, width=None):
+    """Legend label: the law (:func:`law_label`), plus the method when methods are mixed."""
     methods = {r.method for r in results}
-    return result.model if len(methods) == 1 else f"{result.model} ({result.method})"
+    text = law_label(result.model, width)
+    return text if len(methods) == 1 else f"{text} ({result.method})"
 
 
 def _core_title(data):
@@ -132,11 +151,23 @@ def _blank(ax_mag, ax_ph, rs, f):
     )
 
 
+#: Points per character of the legends' text (8.3 pt "small" type, on average).
+_CHAR_PT = 4.6
+
+
 def _legend(fig, handles, ncol=None):
+    """The figure's legend below its panels; long labels (laws' names) in two columns, and
+    wrapped where a column would not fit the figure's width."""
+    if ncol is None:
+        long = max(len(h.get_label()) for h in handles) > 40
+        ncol = min(len(handles), 2 if long else 4)
+    chars = int(fig.get_figwidth() * 72 / ncol / _CHAR_PT) - 8  # (the handle and the gap)
+    for h in handles:
+        h.set_label("\n".join(textwrap.wrap(h.get_label(), max(chars, 20))))
     fig.legend(
         handles=handles,
         loc="outside lower center",
-        ncol=ncol or min(len(handles), 4),
+        ncol=ncol,
         fontsize="small",
         frameon=False,
     )

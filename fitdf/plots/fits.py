@@ -160,10 +160,10 @@ def plot_fit(
             Patch(
                 color=f"C{band_idx}",
                 alpha=0.35,
-                label=f"{band.model}: 68% / 95% posterior band of the curve",
+                label=f"{band.model}: 68% (darker) / 95% posterior band of the curve",
             )
         )
-    _legend(fig, handles, ncol=min(len(handles), 5))
+    _legend(fig, handles)
     core, tables = _core_title(data)
     rs_text = " and ".join(f"{v:g}" for v in rs_list)
     fig.suptitle(
@@ -224,7 +224,8 @@ def plot_residuals(results, top=3, title=None):
             )
         m = r.metrics
         top_ax.set_title(
-            f"{_label(r, results)}\nRMS |DF| {m['rms_magnitude']:.3f}, phase {m['rms_phase_deg']:.1f} deg",
+            f"{_label(r, results, width=44)}\n"
+            f"RMS |DF| {m['rms_magnitude']:.3f}, phase {m['rms_phase_deg']:.1f} deg",
             fontsize="medium",
         )
         for a in (top_ax, bottom):
@@ -242,6 +243,10 @@ def plot_residuals(results, top=3, title=None):
             Line2D([], [], color="0.3", marker=markers[rs], ls="none", ms=4, label=f"{rs:g} ohm")
             for rs in impedances
         ]
+    handles += [
+        Line2D([], [], color="0.3", marker="o", ms=4, lw=0.6, label="rows of one frequency"),
+        Line2D([], [], color="0.5", lw=0.8, label="zero"),
+    ]
     _legend(fig, handles, ncol=min(len(handles), 8))
     core, tables = _core_title(results[0].problem.data)
     fig.suptitle(title or f"Residuals of the top {len(results)} models, {core} ({tables})")
@@ -306,12 +311,21 @@ def plot_cross_impedance(
             _label_pair(ax_mag, ax_ph, j == 0, rs, True, f)
     handles = [Line2D([], [], color="k", marker="o", ls="none", ms=4, label="measured")]
     handles += [
+        Line2D([], [], color="0.3", label=f"fitted at {rs_train[0]:g} ohm (top rows)"),
         Line2D(
-            [], [], color=f"C{i}", label=f"{_label(r, results)}: fit (solid), prediction (dashed)"
-        )
-        for i, r in enumerate(results)
+            [],
+            [],
+            color="0.3",
+            ls="--",
+            label=f"predicted at {rs_test[0]:g} ohm"
+            + (", only the table's gain refitted" if gains else "")
+            + " (bottom rows)",
+        ),
     ]
-    _legend(fig, handles, ncol=min(len(handles), 3))
+    handles += [
+        Line2D([], [], color=f"C{i}", label=_label(r, results)) for i, r in enumerate(results)
+    ]
+    _legend(fig, handles)
     core, _ = _core_title(train)
     fig.suptitle(
         title

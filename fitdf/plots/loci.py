@@ -17,6 +17,7 @@ from fitdf.plots._panels import (
     _block,
     _core_title,
     _label,
+    _legend,
     _panels,
     _table_for,
 )
@@ -111,24 +112,25 @@ def plot_critical_loci(
         a.grid(True, lw=0.4, alpha=0.5)
         a.set_title(f"source impedance {rs:g} ohm", fontsize="medium")
     handles = [
-        Line2D([], [], color=f"C{j}", marker="o", ms=4, ls="none", label=f"{f:g} c/s measured")
+        Line2D(
+            [], [], color=f"C{j}", marker="o", ms=4, lw=1.3, label=f"{f:g} c/s: measured, fitted"
+        )
         for j, f in enumerate(freqs)
     ]
     handles += [
-        Line2D(
-            [],
-            [],
-            color="0.2",
-            ls=_STYLES[i % 4],
-            label=f"{_label(r, results)} fit (arrow: A grows)",
-        )
+        Line2D([], [], color="0.2", ls=_STYLES[i % 4], label=_label(r, results))
         for i, r in enumerate(curves)
     ]
-    axes[-1].legend(handles=handles, fontsize="x-small", loc="best")
+    if curves:
+        handles.append(
+            Line2D([], [], color="0.2", marker=">", ms=5, lw=1.0, label="amplitude grows")
+        )
     core, tables = _core_title(data)
     text = title or f"Critical loci -1/DF, {core} ({tables})"
     if ax is None:
+        _legend(fig, handles, ncol=min(len(handles), 2 if curves else 4))
         fig.suptitle(text)
     else:
+        ax.legend(handles=handles, fontsize="x-small", loc="best")
         ax.set_title(text, fontsize="medium")
     return fig

@@ -10,7 +10,13 @@ material constants against Appendix A.
   of ``appendix_a_check`` (initial permeability, coercive force, peak flux density, ...)
   against the Appendix A range of the core -- one small panel per quantity (log axis where
   the values span more than a decade), one row per core, the range as a bar, each block's
-  fitted value as a marker (filled: inside the range; open red: outside).
+  fitted value as a marker (filled: inside the range; open red: outside it; open grey: a
+  value the fit does not determine -- an initial permeability whose small-signal limit the
+  law does not reach, a maximum permeability at the edge of the data); a note under the
+  panels says what "outside" means and which constants one source impedance leaves open
+  (:data:`NOTE`).
+
+The laws are named by their titles beside their code names (``results["models"]``).
 
 Everything is read from the results record of ``fitdf report`` (the dict that becomes
 ``results.json``): this module never fits. :func:`plot_summary` returns the Figure.
@@ -25,6 +31,7 @@ Examples
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,20 +41,43 @@ from matplotlib.patches import Patch, Rectangle
 
 from fitdf.plots._figure import new_figure
 
-__all__ = ["SummaryGrid", "residual_grid", "constant_rows", "plot_summary", "CAPTION"]
+__all__ = ["SummaryGrid", "residual_grid", "constant_rows", "plot_summary", "CAPTION", "NOTE"]
 
 #: One sentence saying what the summary figure's colours and marks mean (the report's caption).
 CAPTION = (
     "Left: RMS complex residual |fit - measured| of every law's least-squares fit on every "
     "block (colour and number; darker is closer, grey hatched: not fitted; red frame: the "
-    "best law of the block); right: the material constants of each block's best fit "
-    "(filled marker inside the Appendix A range shown as the green bar, open red marker "
-    "outside)."
+    "best law of the block); right: the material constants of each block's best fit against "
+    "the Appendix A range of its core's material (green bar; circle: a 0 ohm table, square: a "
+    "600 ohm table, diamond: both jointly), a filled marker inside the range, an open red one "
+    "outside it (the fitted constant lies outside the catalogue range of the material; for "
+    "the winding resistance, outside the band about its Appendix A estimate), an open grey "
+    "one where the fit does not determine the constant."
 )
+
+#: What the constants panel's marks mean, and what the data leave open (drawn under it; the
+#: second sentence only where a marker is grey).
+NOTE = (
+    "Outside: the fitted constant lies outside the Appendix A catalogue range of the core's "
+    "material (winding resistance: outside the band about its Appendix A estimate). "
+    "Grey: not determined (no small-signal limit; maximum at the edge of the data). "
+    "At one source impedance (circles, squares) the permeabilities and $H_c$ trade against "
+    "the winding resistance (*); $B_p$ and $B_r$ are those of the largest loop the tables reach "
+    "(**), so a $B_p$ below the range is a lower bound."
+)
+_GREY = "Grey: not determined (no small-signal limit; maximum at the edge of the data). "
+#: Short notes beside the panels' titles, by quantity (see :data:`NOTE`).
+_PANEL_NOTES = {
+    "initial_permeability": "(*)",
+    "maximum_permeability": "(*)",
+    "coercive_force_Hc": "(*)",
+    "peak_flux_density_Bp": "(**)",
+    "residual_induction_Br": "(**)",
+}
 
 _CMAP = "viridis"
 _BEST = "#d62728"
-_INSIDE, _OUTSIDE, _RANGE = "#1f3b73", "#d62728", "#b8dfb0"
+_INSIDE, _OUTSIDE, _RANGE, _OPEN = "#1f3b73", "#d62728", "#b8dfb0", "0.45"
 #: Marker per kind of block: a 0 ohm table, a 600 ohm table, a joint fit of both.
 _MARKERS = {"0 ohm table": "o", "600 ohm table": "s", "joint fit": "D"}
 _QUANTITY_LABELS = {
@@ -147,8 +177,11 @@ def constant_rows(results: dict) -> list[dict]:
     -------
     list of dict
         ``{core, quantity, unit, low, high, fits}`` in the order cores and quantities
-        first appear; ``fits`` is a list of ``{block, kind, model, fitted, inside}`` (one
-        per block of the core whose best least-squares fit has an ``appendix_a_check``).
+        first appear; ``fits`` is a list of ``{block, kind, model, fitted, inside,
+        determined}`` (one per block of the core whose best least-squares fit has an
+        ``appendix_a_check``; ``determined`` False for an initial permeability whose
+        small-signal limit the fit does not reach, ``material.initial_converged``, and a
+        maximum permeability at the edge of the data, ``material.maximum_at_edge``).
         Empty when no fit has one.
     """
     rows: dict = {}
@@ -157,6 +190,11 @@ def constant_rows(results: dict) -> list[dict]:
         if not order:
             continue
         fit = (rec.get("fits_lsq") or {}).get(order[0]) or {}
+        material = fit.get("material") or {}
+        open_ = {
+            "initial_permeability": material.get("initial_converged") is False,
+            "maximum_permeability": bool(material.get("maximum_at_edge")),
+        }
         for c in fit.get("appendix_a_check") or []:
             row = rows.setdefault(
                 (rec["core"], c["quantity"]),
@@ -176,6 +214,7 @@ def constant_rows(results: dict) -> list[dict]:
                     "model": order[0],
                     "fitted": _float(c["fitted"]),
                     "inside": bool(c["inside"]),
+                    "determined": not open_.get(c["quantity"], False),
                 }
             )
     return list(rows.values())
@@ -184,7 +223,17 @@ def constant_rows(results: dict) -> list[dict]:
 # ------------------------------------------------------------------ drawing
 #: Inches of the grid panel: per law (up to a row height of 1 inch when the constants panel
 #: beside it is taller) and for the title, column labels and colour bar.
-_GRID_ROW, _GRID_EXTRA = 0.5, 2.3
+_GRID_ROW, _GRID_EXTRA = 0.62, 2.3
+#: Characters per line of a law's title beside the grid.
+_TITLE_WIDTH = 26
+
+
+def _law_tick(name: str, titles: dict) -> str:
+    """A grid row's label: the law's title (wrapped) over its code name in brackets."""
+    title = titles.get(name)
+    if not title:
+        return name
+    return "\n".join([*textwrap.wrap(title, _TITLE_WIDTH), f"[{name}]"])
 
 
 def _grid_axes(fig, height, n):
@@ -196,7 +245,7 @@ def _grid_axes(fig, height, n):
     return fig.add_subplot(gs[0]), fig.add_subplot(gs[1])
 
 
-def _draw_grid(ax, cax, grid: SummaryGrid) -> None:
+def _draw_grid(ax, cax, grid: SummaryGrid, titles: dict) -> None:
     values = grid.rms[np.isfinite(grid.rms) & (grid.rms > 0)]
     lo, hi = (values.min(), values.max()) if values.size else (1e-3, 1.0)
     if hi <= lo:  # one value: a band around it
@@ -238,7 +287,7 @@ def _draw_grid(ax, cax, grid: SummaryGrid) -> None:
                 )
             )
     ax.set_xticks(range(m), grid.labels, fontsize=9)
-    ax.set_yticks(range(n), grid.laws, fontsize=10)
+    ax.set_yticks(range(n), [_law_tick(m, titles) for m in grid.laws], fontsize=8)
     ax.xaxis.tick_top()
     ax.tick_params(length=0)
     ax.set_xticks(np.arange(-0.5, m), minor=True)
@@ -302,7 +351,7 @@ def _draw_quantity(ax, rows: list[dict], cores: list[str], show_xlabel_unit=True
         if not np.isfinite(r["high"]):  # no upper limit: the bar runs off the panel
             ax.plot(hi, y, ">", color=_RANGE, ms=9, clip_on=False, zorder=1)
         offsets = np.linspace(-0.2, 0.2, len(r["fits"])) if len(r["fits"]) > 1 else [0.0]
-        edge = []  # values off a log axis (zeros): drawn just inside the left edge, written once
+        at_edge = []  # values off a log axis (zeros): drawn just inside the left edge, written once
         for f, dy in zip(r["fits"], offsets):
             marker = _MARKERS.get(f["kind"], "o")
             if not np.isfinite(f["fitted"]):  # the loop does not define it
@@ -311,20 +360,21 @@ def _draw_quantity(ax, rows: list[dict], cores: list[str], show_xlabel_unit=True
             x = f["fitted"]
             if log and x <= lo:
                 x = lo * 1.4
-                edge.append(f"{f['fitted']:.3g}")
+                at_edge.append(f"{f['fitted']:.3g}")
+            edge = _OPEN if not f.get("determined", True) else _INSIDE if f["inside"] else _OUTSIDE
             ax.plot(
                 x,
                 y + dy,
                 marker,
                 ms=6.5,
                 mew=1.6,
-                mfc=_INSIDE if f["inside"] else "white",
-                mec=_INSIDE if f["inside"] else _OUTSIDE,
+                mfc=_INSIDE if f["inside"] and f.get("determined", True) else "white",
+                mec=edge,
                 zorder=3,
                 clip_on=False,
             )
-        if edge:
-            _note(ax, lo * 1.4, y, " ".join(dict.fromkeys(edge)), _OUTSIDE, dx=7)
+        if at_edge:
+            _note(ax, lo * 1.4, y, " ".join(dict.fromkeys(at_edge)), _OUTSIDE, dx=7)
     ax.set_ylim(len(cores) - 0.5, -0.5)
     ax.set_yticks(range(len(cores)), [c.capitalize() for c in cores], fontsize=8)
     ax.tick_params(axis="x", labelsize=8, pad=1)
@@ -332,31 +382,31 @@ def _draw_quantity(ax, rows: list[dict], cores: list[str], show_xlabel_unit=True
     ax.grid(axis="x", color="0.9", lw=0.6)
     ax.set_axisbelow(True)
     label = _QUANTITY_LABELS.get(q, q.replace("_", " "))
-    ax.set_title(f"{label} ({unit})" if unit else label, fontsize=9, loc="left", pad=2)
+    note = _PANEL_NOTES.get(q, "")
+    ax.set_title(
+        (f"{label} ({unit})" if unit else label) + (f" {note}" if note else ""),
+        fontsize=9,
+        loc="left",
+        pad=2,
+    )
 
 
-def _constants_legend(fig, kinds) -> None:
+def _constants_legend(fig, kinds, undetermined: bool) -> None:
+    """The markers' key, then :data:`NOTE`, under the constants panels."""
     handles = [
         Line2D([], [], ls="none", marker=_MARKERS[k], ms=6.5, mfc="0.5", mec="0.5", label=k)
         for k in _MARKERS
         if k in kinds
     ]
+    marks = [("inside the range", _INSIDE, _INSIDE), ("outside it", "white", _OUTSIDE)]
+    if undetermined:
+        marks.append(("not determined", "white", _OPEN))
     handles += [
-        Line2D([], [], ls="none", marker="o", ms=6.5, mfc=_INSIDE, mec=_INSIDE, label="inside"),
-        Line2D(
-            [],
-            [],
-            ls="none",
-            marker="o",
-            ms=6.5,
-            mew=1.6,
-            mfc="white",
-            mec=_OUTSIDE,
-            label="outside",
-        ),
-        Patch(color=_RANGE, label="Appendix A range"),
+        Line2D([], [], ls="none", marker="o", ms=6.5, mew=1.6, mfc=face, mec=edge, label=text)
+        for text, face, edge in marks
     ]
-    fig.legend(
+    handles.append(Patch(color=_RANGE, label="Appendix A range"))
+    legend = fig.legend(
         handles=handles,
         loc="outside lower center",
         ncol=3,
@@ -364,7 +414,11 @@ def _constants_legend(fig, kinds) -> None:
         frameon=False,
         columnspacing=1.0,
         handletextpad=0.3,
+        title="\n".join(textwrap.wrap(NOTE if undetermined else NOTE.replace(_GREY, ""), 88)),
+        title_fontsize=7,
     )
+    legend.get_title().set_multialignment("left")
+    legend._legend_box.align = "left"  # the note's lines flush left above the key
 
 
 def plot_summary(results: dict):
@@ -387,6 +441,7 @@ def plot_summary(results: dict):
         When the record holds no block with a ranking.
     """
     grid = residual_grid(results)
+    titles = {m["name"]: m.get("title") for m in results.get("models") or []}
     if not grid.blocks or all(b is None for b in grid.best):
         raise ValueError("the results record holds no ranked block to summarise")
     consts = constant_rows(results)
@@ -395,17 +450,20 @@ def plot_summary(results: dict):
     height = _GRID_EXTRA + _GRID_ROW * n
     if not consts:
         fig = new_figure((width, height))
-        _draw_grid(*_grid_axes(fig, height, n), grid)
+        _draw_grid(*_grid_axes(fig, height, n), grid, titles)
         return fig
     quantities = list(dict.fromkeys(r["quantity"] for r in consts))
     cores = list(dict.fromkeys(r["core"] for r in consts))
     height = max(height, 0.55 + len(quantities) * (0.5 + 0.24 * len(cores)))
     fig = new_figure((width + 4.6, height))
     left, right = fig.subfigures(1, 2, width_ratios=[width, 4.6], wspace=0.02)
-    _draw_grid(*_grid_axes(left, height, n), grid)
+    _draw_grid(*_grid_axes(left, height, n), grid, titles)
     axes = right.subplots(len(quantities), 1, squeeze=False)[:, 0]
     for a, q in zip(axes, quantities):
         _draw_quantity(a, [r for r in consts if r["quantity"] == q], cores)
     right.suptitle("Best fit of each block against Appendix A", fontsize=11, x=0.02, ha="left")
-    _constants_legend(right, {f["kind"] for r in consts for f in r["fits"]})
+    fits = [f for r in consts for f in r["fits"]]
+    _constants_legend(
+        right, {f["kind"] for f in fits}, any(not f.get("determined", True) for f in fits)
+    )
     return fig

@@ -7,13 +7,43 @@ the parameter tables and the MCMC diagnostics of one block of ``results.json``
 
 from __future__ import annotations
 
-from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt
+from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, law
+from fitdf.report.findings import OUTSIDE
 
-__all__ = ["RANK_COLS"]
+__all__ = ["RANK_COLS", "FIT_CAPTION", "LOCI_CAPTION", "RESIDUALS_CAPTION", "CORNER_CAPTION"]
+
+#: What each of a block's figures shows (every mark of the figure named).
+FIT_CAPTION = (
+    "Measured |DF| (upper panel of each pair) and phase lead (lower) against input amplitude, "
+    "one column per frequency and, for a joint fit, a pair of rows per source impedance: black "
+    "dots are the rows fitted, grey crosses the rows the audit excluded, and each law's "
+    "least-squares curve is a line of its own colour (as in the legend); the shaded bands, when "
+    "MCMC ran, are the best law's posterior band of the curve (68 %, darker, and 95 %)."
+)
+LOCI_CAPTION = (
+    "-1/DF in the Nyquist plane, one panel per source impedance: dots are the measured rows and "
+    "lines the curves of the best two laws over the measured amplitude range (solid: the best, "
+    "dashed: the runner-up), one colour per frequency; the arrow on the best law's curve points "
+    "the way the amplitude grows. The measured DF leads, so the loci lie in the second quadrant; "
+    "rows with |DF| below 0.15 lie beyond the axes."
+)
+RESIDUALS_CAPTION = (
+    "Fit minus measured |DF| (top) and phase lead (bottom) against input amplitude, one column "
+    "per law (the best ones, with their RMS residuals above): one colour per frequency, circles "
+    "for the first source impedance and squares for the second (a joint fit), thin lines "
+    "joining the rows of one frequency; the grey line is zero."
+)
+CORNER_CAPTION = (
+    "The posterior of the best law's parameters (log10 of those sampled in log): on the "
+    "diagonal the histogram of each parameter with dashed lines at its 16th, 50th and 84th "
+    "percentiles (its title: the median, plus and minus the distance to them); below it the "
+    "draws of each pair, contours enclosing 12, 39, 68 and 86 % of them; blue lines and "
+    "squares: the least-squares optimum the chains started from."
+)
 
 RANK_COLS = [
     ("rank", "rank"),
-    ("model", "model"),
+    ("model", "law"),
     ("n_params", "k"),
     ("n_points", "rows"),
     ("rms_complex", "RMS complex"),
@@ -131,7 +161,7 @@ def _material_blocks(fit):
     return [TABLE(["material constant", "fitted", "unit", "Appendix A", "inside"], rows)]
 
 
-def _param_blocks(rec):
+def _param_blocks(rec, names):
     out = []
     for method, fits in (("least squares", rec["fits_lsq"]), ("MCMC", rec["fits_mcmc"])):
         for i, (model, fit) in enumerate(fits.items()):
@@ -139,13 +169,13 @@ def _param_blocks(rec):
             if fit["warnings"]:
                 body.append(UL([f"warning: {w}" for w in fit["warnings"]]))
             if i == 0:
-                out += [P(f"**`{model}`** ({method}, best of this method):")] + body
+                out += [P(f"**{law(names, model)}** ({method}, best of this method):")] + body
             else:
-                out.append(DETAILS(f"{model} ({method})", body))
+                out.append(DETAILS(f"{law(names, model)} ({method})", body))
     return out
 
 
-def _mcmc_blocks(rec):
+def _mcmc_blocks(rec, names):
     if not rec["fits_mcmc"]:
         return [P("No MCMC in this configuration.")]
     rows = []
@@ -153,7 +183,7 @@ def _mcmc_blocks(rec):
         d = fit["diagnostics"]
         rows.append(
             [
-                model,
+                law(names, model),
                 f"{d['n_walkers']} x {d['n_steps']}",
                 d["burn"],
                 d["thin"],
@@ -171,7 +201,7 @@ def _mcmc_blocks(rec):
     out = [
         TABLE(
             [
-                "model",
+                "law",
                 "walkers x steps",
                 "burn-in",
                 "thin",
@@ -196,13 +226,14 @@ def _mcmc_blocks(rec):
         ),
     ]
     if rec["figures"].get("corner"):
-        out.append(
-            IMG(rec["figures"]["corner"], f"corner plot of {rec['order_lsq'][0]} on {rec['key']}")
-        )
+        out += [
+            IMG(rec["figures"]["corner"], f"corner plot of {rec['order_lsq'][0]} on {rec['key']}"),
+            P(CORNER_CAPTION),
+        ]
     return out
 
 
-def _chain_blocks(rec):
+def _chain_blocks(rec, names):
     """The exact chain against its approximation: ranking, prediction gap, fitted constants."""
     cc = rec.get("chain_comparison")
     if not cc:
@@ -214,6 +245,7 @@ def _chain_blocks(rec):
         rows.append(
             {
                 **b,
+                "model": law(names, b["model"]),
                 "mu_i": f"{fmt(ce.get('initial_permeability'), 3)} / {fmt(ca.get('initial_permeability'), 3)}",
                 "hc": f"{fmt(ce.get('coercive_force_oe'), 3)} / {fmt(ca.get('coercive_force_oe'), 3)}",
                 "bp": f"{fmt(ce.get('peak_flux_density_gauss'), 3)} / "
@@ -228,9 +260,10 @@ def _chain_blocks(rec):
             f"Exact circuit ({cc['exact_chain']}) against its approximation ({cc['approximate_chain']})",
         ),
         P(
-            f"Every law is also fitted through the `{cc['approximate_chain']}` chain. Ranking there: "
+            f"Every law is also fitted through the `{cc['approximate_chain']}` chain. Ranking there "
+            "(code names, as in the ranking above; RMS complex residual): "
             + ", ".join(
-                f"{m} ({fmt(cc['rms_approximate'][m], 3)})" for m in cc["order_approximate"]
+                f"`{m}` ({fmt(cc['rms_approximate'][m], 3)})" for m in cc["order_approximate"]
             )
             + (
                 " - the same order as the exact chain."
@@ -243,7 +276,7 @@ def _chain_blocks(rec):
         _records_table(
             rows,
             [
-                ("model", "model"),
+                ("model", "law"),
                 ("rms_exact", "RMS exact"),
                 ("rms_approximate", "RMS approx. (refit)"),
                 ("prediction_gap_rms", "gap RMS"),
@@ -258,37 +291,41 @@ def _chain_blocks(rec):
     ]
 
 
-def _block_blocks(rec):
+def _named(records, names, *keys):
+    """``records`` with the laws under ``keys`` named by :func:`~fitdf.report.document.law`."""
+    return [{**r, **{k: law(names, r.get(k)) for k in keys}} for r in records]
+
+
+def _block_blocks(rec, names):
+    """One block's section; ``names``: :func:`~fitdf.report.document.law_names` of the record."""
     f = rec["figures"]
     out = [
         H(2, rec["title"]),
         H(3, "Data"),
         *_data_blocks(rec),
         H(3, "Describing function against input amplitude"),
-        P(
-            "Measured |DF| and phase lead per frequency with every model's least-squares curve; the shaded band is "
-            "the best model's posterior (68% and 95%) when MCMC ran."
-        ),
         IMG(f["fit"], f"DF fits on {rec['key']}"),
+        P(FIT_CAPTION),
         H(3, "Critical loci"),
-        P("-1/DF in the Nyquist plane (second quadrant: the measured DF leads)."),
         IMG(f["loci"], f"critical loci on {rec['key']}"),
+        P(LOCI_CAPTION),
         H(3, "Ranking"),
         P("Least squares, ordered by RMS complex residual |fit - measured|:"),
-        _records_table(rec["ranking_lsq"], RANK_COLS),
+        _records_table(_named(rec["ranking_lsq"], names, "model"), RANK_COLS),
     ]
     if rec["ranking_mcmc"]:
         out += [
             P("MCMC (posterior medians; fitted noise scales), ordered by LOO-IC:"),
-            _records_table(rec["ranking_mcmc"], RANK_COLS),
+            _records_table(_named(rec["ranking_mcmc"], names, "model"), RANK_COLS),
         ]
     wf = rec["where_models_fail"]
     out += [
         H(3, "Residuals of the top models"),
         IMG(f["residuals"], f"residuals on {rec['key']}"),
-        P("Rows that every model misses (smallest complex residual over all models):"),
+        P(RESIDUALS_CAPTION),
+        P("Rows that every law misses (smallest complex residual over all laws):"),
         _records_table(
-            wf["rows"],
+            _named(wf["rows"], names, "closest_model"),
             [
                 ("table", "table"),
                 ("source_impedance_ohm", "source (ohm)"),
@@ -297,15 +334,15 @@ def _block_blocks(rec):
                 ("df_measured", "|DF|"),
                 ("phase_lead_measured_deg", "lead (deg)"),
                 ("smallest_complex_residual", "smallest residual"),
-                ("closest_model", "closest model"),
+                ("closest_model", "closest law"),
                 ("largest_complex_residual", "largest residual"),
             ],
         ),
         DETAILS(
-            "RMS complex residual per frequency block (best and worst model)",
+            "RMS complex residual per frequency block (best and worst law)",
             [
                 _records_table(
-                    wf["frequency_blocks"],
+                    _named(wf["frequency_blocks"], names, "best_model", "worst_model"),
                     [
                         ("source_impedance_ohm", "source (ohm)"),
                         ("frequency_hz", "f (c/s)"),
@@ -318,10 +355,15 @@ def _block_blocks(rec):
                 )
             ],
         ),
-        *_chain_blocks(rec),
+        *_chain_blocks(rec, names),
         H(3, "Parameters"),
-        *_param_blocks(rec),
+        P(
+            "Each fit's parameters, then its loop's material constants against Appendix A: "
+            f"**no** in the last column means that {OUTSIDE}. Which constants the data do not "
+            "determine: see the note under the summary figure."
+        ),
+        *_param_blocks(rec, names),
         H(3, "MCMC diagnostics"),
-        *_mcmc_blocks(rec),
+        *_mcmc_blocks(rec, names),
     ]
     return out

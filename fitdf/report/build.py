@@ -31,6 +31,14 @@ Kept jobs
     The key covers the job, the settings and seed, the code, the bundled data and the
     machine (:func:`job_cache`), so a kept result is the one the job would compute again;
     ``timing.reused_jobs`` lists them.
+Progress
+    A run has three phases -- least squares; then MCMC, cross-validation, the approximate
+    chain's refits, cross-impedance and limit cycles, as far as the settings ask for them
+    (:func:`fitdf.report.costs.phase_labels`); then the figures. It opens with two lines
+    (stderr) saying what it computes and about how long it takes at the speed of the machine
+    the committed report was made on, then shows one bar for the whole run whose time left
+    is weighted by each job's expected cost and calibrated by the jobs finished on this
+    machine (:mod:`fitdf.report.costs`, :mod:`fitdf.report.progress`).
 Atomic output
     Everything is built in a temporary sibling of ``out_dir`` which then replaces it
     (two renames, the old report restored if the second fails): an interrupted or
@@ -55,7 +63,7 @@ from fitdf import __version__
 from fitdf.data.datasets import data_dir
 from fitdf.errors import OptionError
 from fitdf.executor import Executor
-from fitdf.inference.api import DEFAULT_CHAIN, fit
+from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
@@ -64,8 +72,9 @@ from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_tab
 from fitdf.jobcache import JobCache, default_cache_folder, run_salt
 from fitdf.machine import machine_record
 from fitdf.models import get_model, model_names
-from fitdf.report import render
+from fitdf.report import costs, render
 from fitdf.report import sections as rs
+from fitdf.report.progress import RunProgress
 
 __all__ = [
     "generate_report",
@@ -150,7 +159,7 @@ class ReportSettings:
         exact chain they cost 0.9-3.3 ms per parameter set against Preisach's 3.5-10 ms, so the
         same time buys them more steps. Of those laws only cubic_hc needs them: its kinked
         posterior (the joint ``h1`` between rows) mixes slowly, and on B.1 it converged at
-        14400 steps (benchmarks/README.md, thirteenth pass); the others converge within
+        14400 steps (benchmarks/README.md); the others converge within
         the common limits.
     mcmc_skip : tuple of str
         Laws left out of the report's MCMC (the best laws *without* them get the chains):
@@ -346,10 +355,10 @@ def _top(ranked: list[str], n):
     return list(ranked) if n is None else list(ranked)[: max(int(n), 0)]
 
 
-def _least_squares(settings, seed, runner, models, blocks) -> dict:
-    """Every model on every block through the exact chain; costly models and large blocks
-    first (a short pool tail)."""
-    order = sorted(
+def _lsq_order(models, blocks) -> list:
+    """``(block, model)`` of the least-squares jobs: costly models and large blocks first (a
+    short pool tail)."""
+    return sorted(
         ((b, m) for b in blocks for m in models),
         key=lambda bm: (
             -rs.expected_cost(bm[0].data, bm[1]),
@@ -357,11 +366,15 @@ def _least_squares(settings, seed, runner, models, blocks) -> dict:
             models.index(bm[1]),
         ),
     )
+
+
+def _least_squares(settings, seed, runner, models, blocks) -> dict:
+    """Every model on every block through the exact chain."""
     jobs = {
         (b.key, m): (_job_lsq, (b.data, m, seed, settings.n_starts, settings.chain))
-        for b, m in order
+        for b, m in _lsq_order(models, blocks)
     }
-    return runner.run(jobs, "least squares")
+    return runner.run(jobs, costs.phase_labels(settings)[0])
 
 
 def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -> dict:
@@ -406,8 +419,10 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
                 _job_cross,
                 (core, m, train, test, seed, settings.n_starts, settings.chain),
             )
-    done = runner.run(
-        dict(sorted(jobs.items(), key=_long_first)), "MCMC, CV, cross-impedance, limit cycles"
+    done = (
+        runner.run(dict(sorted(jobs.items(), key=_long_first)), costs.phase_labels(settings)[1])
+        if jobs
+        else {}
     )
     out = {
         kind: {k[1:]: v for k, v in done.items() if k[0] == kind}
@@ -438,7 +453,8 @@ def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:
             }
             jobs[("cross", core, train, test)] = (_job_figures, ("cross", payload))
     jobs[("thesis",)] = (_job_figures, ("thesis", None))
-    return {k: _keep_files(v, figdir) for k, v in runner.run(jobs, "figures").items()}
+    done = runner.run(jobs, costs.phase_labels(settings)[2])
+    return {k: _keep_files(v, figdir) for k, v in done.items()}
 
 
 def collect(settings: ReportSettings, seed: int, figdir: Path, runner: Executor) -> dict:
@@ -608,7 +624,8 @@ def generate_report(
         the same rankings), no cross-validation, one model per cross-impedance
         direction. For tests and a first look.
     progress : bool
-        tqdm progress bars and the total run time on stderr.
+        What the run computes and about how long it takes, one progress bar for the whole
+        run (with the time left) and the total run time, on stderr; False prints nothing.
     methods : sequence
         ``("lsq", "mcmc")`` or ``("lsq",)``; ignored when ``quick``.
     settings : ReportSettings, optional
@@ -637,7 +654,10 @@ def generate_report(
         os.chmod(tmp, 0o755)  # mkdtemp makes it private; the report is meant to be read
         figdir = tmp / "figures"
         figdir.mkdir()
-        with Executor(settings.workers, settings.scheduler, progress, cache=cache) as runner:
+        with (
+            Executor(settings.workers, settings.scheduler, progress, cache=cache) as runner,
+            _display(settings, runner, progress, cache is not None),
+        ):
             results = collect(settings, seed, figdir, runner)
         total = time.perf_counter() - start
         results["timing"]["total_s"] = total
@@ -668,6 +688,38 @@ def generate_report(
             file=sys.stderr,
         )
     return out_dir
+
+
+def _display(settings: ReportSettings, runner: Executor, progress: bool, cached: bool):
+    """The run's progress display, attached to ``runner``; with ``progress``, the line saying
+    what the run computes and about how long it takes is printed first (stderr)."""
+    models, blocks = settings.model_list(), settings.block_list()
+    keys = [b.key for b in blocks]
+    folds = {}
+    if settings.cv_top != 0:
+        for b in blocks:
+            d = resolve_data(b.data, "default", None)
+            folds[b.key] = len(set(zip(d.source_impedance.tolist(), d.frequency.tolist())))
+    lsq_keys = [(b.key, m) for b, m in _lsq_order(models, blocks)]
+    phases, what = costs.plan(settings, models, keys, lsq_keys, folds, costs.phase_labels(settings))
+    if progress:
+        line = costs.start_line(
+            what,
+            costs.estimate(phases, runner.workers),
+            runner.workers,
+            rough=costs.rough(settings),
+            cached=cached,
+        )
+        print(line, file=sys.stderr, flush=True)
+    runner.display = RunProgress(
+        phases,
+        costs.expected_seconds,
+        runner.workers,
+        kind=costs.job_kind,
+        enabled=progress,
+        reference="at the committed machine's speed",
+    )
+    return runner.display
 
 
 def _settings_record(settings: ReportSettings) -> dict:

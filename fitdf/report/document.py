@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["fmt", "slug", "H", "P", "UL", "TABLE", "IMG", "DETAILS"]
+__all__ = ["fmt", "slug", "law_names", "law", "H", "P", "UL", "TABLE", "IMG", "DETAILS"]
 
 
 # ------------------------------------------------------------------ formatting
@@ -32,6 +32,21 @@ def slug(text: str) -> str:
     """GitHub's heading anchor: lower case, punctuation dropped, spaces to hyphens."""
     text = re.sub(r"[^\w\- ]", "", text.strip().lower().replace("`", ""))
     return text.replace(" ", "-")
+
+
+def law_names(res: dict) -> dict:
+    """Code name -> the law's human name beside its code name (``Title `name```), from the
+    ``models`` of a results record (each law's ``title``); a law the record does not
+    describe keeps its code name alone. Look names up with ``.get(name, f"`{name}`")``
+    or :func:`law`."""
+    return {
+        m["name"]: f"{m['title']} `{m['name']}`" for m in res.get("models") or [] if m.get("title")
+    }
+
+
+def law(names: dict, name) -> str:
+    """``name`` as :func:`law_names` names it (``None`` stays None, for empty cells)."""
+    return None if name is None else names.get(name, f"`{name}`")
 
 
 # ------------------------------------------------------------------ document model

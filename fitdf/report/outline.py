@@ -14,7 +14,21 @@ import json
 
 from fitdf.plots.summary import CAPTION as SUMMARY_CAPTION
 from fitdf.report.block_outline import _block_blocks
-from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, slug
+from fitdf.report.costs import phase_labels
+from fitdf.report.document import (
+    DETAILS,
+    IMG,
+    TABLE,
+    UL,
+    H,
+    P,
+    _records_table,
+    fmt,
+    law,
+    law_names,
+    slug,
+)
+from fitdf.report.findings import UNDETERMINED, conclusion, findings
 
 __all__ = ["build_document", "nav_links"]
 
@@ -24,6 +38,15 @@ _LIMIT = "Limit cycles (Tables 5.1, 5.2)"
 _AUDIT = "Audit of the printed tables (Appendix B)"
 _THESIS = "The thesis's computed curves (Graphs 4.1-4.7)"
 _SMALL = "Small signals: a DC-bias hypothesis"
+
+#: What the cross-impedance figures show.
+CROSS_CAPTION = (
+    "Top two rows: the training table, measured (black dots) and fitted (solid lines); bottom "
+    "two rows: the other impedance's table, measured, and the curves predicted from the "
+    "training fit with only that table's gain refitted (dashed); one colour per law, as in "
+    "the legend; a frequency measured at one impedance only leaves its panels at the other "
+    "blank."
+)
 
 
 def _more_starts(models, n_starts) -> str:
@@ -94,7 +117,8 @@ def _settings_text(res) -> list:
             [
                 f"fitdf {res['fitdf_version']}, seed {res['seed']}"
                 + (" (**quick** configuration)" if res.get("quick") else ""),
-                f"models: {', '.join('`' + m + '`' for m in s['models'])}; measurement chain `{s.get('chain', 'winding')}`"
+                f"laws: {', '.join(law(law_names(res), m) for m in s['models'])}; measurement "
+                f"chain `{s.get('chain', 'winding')}`"
                 + (
                     f" (every law also fitted through `{s['approximate_chain']}` for comparison)"
                     if s.get("approximate_chain")
@@ -103,10 +127,7 @@ def _settings_text(res) -> list:
                 f"least squares with {s['n_starts']} starts for every model and block"
                 + _more_starts(res.get("models", []), s["n_starts"])
                 + f"; {mcmc}; {cv}",
-                f"run time {t.get('total_s', 0):.0f} s with {t.get('workers', 1)} worker process(es) "
-                f"(least squares {t.get('least_squares_s', 0):.0f} s, MCMC/CV/cross-impedance/limit cycles "
-                f"{t.get('mcmc_cv_cross_limit_s', 0):.0f} s, figures {t.get('figures_s', 0):.0f} s)"
-                + _reused_text(t),
+                _run_time_text(s, t),
                 _machine_text(t.get("machine")),
                 "regenerate with `fitdf report` (same seed, CPU and libraries: the same numbers; "
                 "on another CPU the optimisers stop a few last digits apart, RMS within about "
@@ -114,6 +135,23 @@ def _settings_text(res) -> list:
             ]
         )
     ]
+
+
+def _run_time_text(settings: dict, t: dict) -> str:
+    """The run time, in all and per phase (named as the run named them)."""
+    labels = phase_labels(settings)
+    seconds = [
+        t.get("least_squares_s", 0),
+        t.get("mcmc_cv_cross_limit_s", 0),
+        t.get("figures_s", 0),
+    ]
+    phases = "; ".join(
+        f"{label} {s:.0f} s" for label, s in zip(labels, seconds) if label != "nothing more"
+    )
+    return (
+        f"run time {t.get('total_s', 0):.0f} s with {t.get('workers', 1)} worker process(es) "
+        f"({phases})" + _reused_text(t)
+    )
 
 
 def _reused_text(timing: dict) -> str:
@@ -128,6 +166,7 @@ def _reused_text(timing: dict) -> str:
 
 
 def _summary_table(res):
+    names = law_names(res)
     rows = []
     for rec in res["blocks"].values():
         r = rec["ranking_lsq"]
@@ -138,18 +177,18 @@ def _summary_table(res):
             [
                 f"[{rec['key']}](#{slug(rec['title'])})",
                 rec["title"],
-                r[0]["model"],
+                law(names, r[0]["model"]),
                 r[0]["rms_complex"],
-                r[1]["model"] if len(r) > 1 else None,
+                law(names, r[1]["model"]) if len(r) > 1 else None,
                 r[1]["rms_complex"] if len(r) > 1 else None,
-                m,
+                law(names, m),
             ]
         )
     return TABLE(
         [
             "block",
             "data",
-            "best (lsq)",
+            "best law (least squares)",
             "RMS complex",
             "runner-up",
             "RMS complex",
@@ -170,6 +209,7 @@ def _cross_blocks(res):
     ]
     if not res["cross_impedance"]:
         return out + [P("Not computed in this configuration.")]
+    names = law_names(res)
     for d in res["cross_impedance"]:
         out.append(
             H(
@@ -180,9 +220,9 @@ def _cross_blocks(res):
         )
         out.append(
             _records_table(
-                d["rows"],
+                [{**row, "model": law(names, row["model"])} for row in d["rows"]],
                 [
-                    ("model", "model"),
+                    ("model", "law"),
                     ("train_rms_complex", "training RMS complex"),
                     ("predict_rms_complex", "prediction RMS complex"),
                     ("predict_rms_magnitude", "prediction RMS |DF|"),
@@ -193,12 +233,13 @@ def _cross_blocks(res):
             )
         )
         if d.get("figure"):
-            out.append(
+            out += [
                 IMG(
                     d["figure"],
                     f"cross-impedance {d['core']} {d['train_ohm']:g} to {d['test_ohm']:g} ohm",
-                )
-            )
+                ),
+                P(CROSS_CAPTION),
+            ]
     return out
 
 
@@ -251,8 +292,12 @@ def _limit_blocks(res):
     out.append(
         P(
             "Limit cycles of the thesis's analog-computer loop predicted by harmonic balance from the fits "
-            "(`fitdf.thesis.thesis_limit_cycle_comparison`; per block the lowest-AICc model among "
-            + ", ".join(f"`{m}`" for m in (lc.get("models_offered") or ["all models"]))
+            "(`fitdf.thesis.thesis_limit_cycle_comparison`; per block the lowest-AICc law among "
+            + (
+                ", ".join(law(law_names(res), m) for m in lc["models_offered"])
+                if lc.get("models_offered")
+                else "all laws"
+            )
             + ") against the measured Tables 5.1 and 5.2."
         )
     )
@@ -261,6 +306,8 @@ def _limit_blocks(res):
     rows = lc.get("rows") or []
     if rows:
         cols = [(c, c) for c in lc.get("columns", rows[0].keys())]
+        names = law_names(res)
+        rows = [{**r, "model": law(names, r["model"])} if r.get("model") else r for r in rows]
         out.append(_records_table(rows, cols))
     attrs = lc.get("attrs") or {}
     scalars = {k: v for k, v in attrs.items() if not isinstance(v, (dict, list))}
@@ -350,7 +397,7 @@ def _overview_blocks(res) -> list:
         return []
     return [
         IMG(path, "summary: residual of every law on every block; constants against Appendix A"),
-        P(SUMMARY_CAPTION),
+        P(f"{SUMMARY_CAPTION} {UNDETERMINED}."),
     ]
 
 
@@ -400,13 +447,15 @@ def build_document(res: dict) -> list:
         H(2, "Contents"),
         UL(toc),
         H(2, "Findings"),
-        P("Generated from the numbers below."),
-        UL(res["findings"]),
+        P(conclusion(res)),
+        P("In detail (every statement is generated from the numbers below):"),
+        UL(findings(res)),
         H(2, "Summary"),
         _summary_table(res),
     ]
+    names = law_names(res)
     for b in blocks:
-        doc += _block_blocks(b)
+        doc += _block_blocks(b, names)
     doc += (
         _cross_blocks(res)
         + _small_signal_blocks(res)

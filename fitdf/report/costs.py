@@ -1,0 +1,468 @@
+"""What a report run costs: each job's expected seconds, from the committed report's timings;
+the run's phases as planned before it starts; and the lines that open it.
+
+Expected seconds
+    :data:`_TABLE` holds every job of the committed full report (``reports/results.json``,
+    ``timing.jobs_s``: the seconds each job took) as it ran there, on
+    :data:`COMMITTED_RUN`'s machine. A job the table lacks -- another law, block or
+    cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind on
+    its block (or direction), else of its kind. The report's progress display scales these by
+    what this machine measures as jobs finish (:mod:`fitdf.report.progress`). After the
+    committed report is regenerated, refresh the table and :data:`COMMITTED_RUN` with
+    :func:`table_text` (tests/test_progress.py says when they are out of date).
+Jobs not known yet
+    The second phase's jobs depend on the least-squares ranking (MCMC, cross-validation and
+    cross-impedance for each block's best laws): :func:`unknown_laws` plans ``n`` of them
+    with the committed report's jobs of that kind on that block.
+"""
+
+from __future__ import annotations
+
+import statistics
+
+from fitdf.plots.thesis import THESIS_GRAPHS
+from fitdf.report.progress import Phase, duration_text, schedule_length
+
+__all__ = [
+    "COMMITTED_RUN",
+    "COMMITTED_SETTINGS",
+    "expected_seconds",
+    "job_kind",
+    "unknown_laws",
+    "plan",
+    "phase_labels",
+    "estimate",
+    "rough",
+    "table_text",
+    "start_line",
+]
+
+#: The committed report's run: where its job times were measured, and what it took in all.
+COMMITTED_RUN = {"cpu": "AMD EPYC", "cores": 2, "workers": 2, "total_s": 7028}
+
+#: The committed report's settings that set its jobs' costs (another value: another cost).
+COMMITTED_SETTINGS = {
+    "n_starts": 6,
+    "n_steps": 300,
+    "max_steps": 4000,
+    "extend_steps": 6000,
+    "closed_form_step_factor": 3,
+    "n_walkers": None,
+    "cv_starts": None,
+    "chain": "voltage",
+    "approximate_chain": "winding",
+    "approximate_screen": 1,
+}
+
+#: Seconds of each job of the committed report, under its key joined by spaces
+#: (:func:`table_text` of its results.json).
+_TABLE = """
+deltamax-joint jiles_atherton                   69.4
+B.5 jiles_atherton                              61.32
+permalloy-joint jiles_atherton                  32.25
+B.4 jiles_atherton                              21.2
+deltamax-joint preisach                         41.18
+B.5 preisach                                    29.08
+deltamax-joint cubic_hc                         48.98
+B.1 jiles_atherton                              16.62
+permalloy-joint preisach                        22.58
+B.3 jiles_atherton                              15.93
+B.4 preisach                                    14.57
+B.2 jiles_atherton                              16.45
+B.5 cubic_hc                                    42.26
+deltamax-joint rayleigh                         4.41
+permalloy-joint cubic_hc                        35.83
+B.4 cubic_hc                                    28.91
+deltamax-joint constant_width                   4.01
+B.5 rayleigh                                    5.68
+B.1 preisach                                    14.14
+B.3 preisach                                    9.61
+permalloy-joint rayleigh                        4.35
+B.2 preisach                                    13.51
+deltamax-joint frequency_hc                     7.29
+B.5 constant_width                              5.77
+B.4 rayleigh                                    4.55
+B.1 cubic_hc                                    21.65
+permalloy-joint constant_width                  3.28
+B.3 cubic_hc                                    24.09
+B.5 frequency_hc                                7.74
+B.4 constant_width                              5.25
+B.2 cubic_hc                                    27.21
+deltamax-joint proportional_width               6.85
+deltamax-joint proportional_width_fig42         10.12
+permalloy-joint frequency_hc                    9.46
+B.4 frequency_hc                                5.05
+B.1 rayleigh                                    2.52
+B.3 rayleigh                                    5.34
+B.5 proportional_width                          7.46
+B.5 proportional_width_fig42                    9.16
+B.2 rayleigh                                    2.46
+B.1 constant_width                              2.31
+permalloy-joint proportional_width              8.54
+permalloy-joint proportional_width_fig42        9.87
+B.3 constant_width                              2.39
+B.4 proportional_width                          6.23
+B.4 proportional_width_fig42                    8.29
+B.2 constant_width                              3.75
+B.1 frequency_hc                                4.3
+B.3 frequency_hc                                4.06
+B.2 frequency_hc                                4.47
+B.1 proportional_width                          6.3
+B.1 proportional_width_fig42                    5.01
+B.3 proportional_width                          3.75
+B.3 proportional_width_fig42                    5.75
+B.2 proportional_width                          3.09
+B.2 proportional_width_fig42                    2.52
+limit                                           70.39
+mcmc deltamax-joint preisach                    2826.91
+mcmc B.5 preisach                               1565.56
+mcmc deltamax-joint cubic_hc                    849.15
+mcmc permalloy-joint preisach                   617.98
+mcmc B.4 preisach                               500.25
+mcmc B.5 cubic_hc                               1398.77
+mcmc permalloy-joint cubic_hc                   403.18
+mcmc B.4 cubic_hc                               487.58
+mcmc deltamax-joint constant_width              152.1
+mcmc B.1 preisach                               730.4
+mcmc B.3 preisach                               583.11
+mcmc B.2 preisach                               593.4
+mcmc B.5 constant_width                         109.65
+mcmc B.1 cubic_hc                               700.12
+mcmc permalloy-joint constant_width             95.81
+mcmc B.3 cubic_hc                               250.76
+mcmc B.4 constant_width                         72.67
+mcmc B.2 cubic_hc                               211.16
+mcmc B.1 rayleigh                               40.93
+mcmc B.3 constant_width                         41.07
+mcmc B.2 constant_width                         91.09
+approx deltamax-joint jiles_atherton            47.5
+approx B.5 jiles_atherton                       34.91
+approx permalloy-joint jiles_atherton           34.32
+approx B.4 jiles_atherton                       22.98
+approx deltamax-joint preisach                  18.3
+approx B.5 preisach                             11.41
+approx deltamax-joint cubic_hc                  3.17
+approx B.1 jiles_atherton                       20.97
+approx permalloy-joint preisach                 11.55
+approx B.3 jiles_atherton                       16.05
+approx B.4 preisach                             7.1
+approx B.2 jiles_atherton                       14.36
+approx B.5 cubic_hc                             2.95
+approx deltamax-joint rayleigh                  1.55
+approx permalloy-joint cubic_hc                 1.98
+approx B.4 cubic_hc                             2.48
+approx deltamax-joint constant_width            0.71
+approx B.5 rayleigh                             1.28
+approx B.1 preisach                             6.34
+approx B.3 preisach                             5.18
+approx permalloy-joint rayleigh                 0.96
+approx B.2 preisach                             8.51
+approx deltamax-joint frequency_hc              0.74
+approx B.5 constant_width                       0.46
+approx B.4 rayleigh                             0.86
+approx B.1 cubic_hc                             1.74
+approx permalloy-joint constant_width           0.56
+approx B.3 cubic_hc                             2.31
+approx B.5 frequency_hc                         0.39
+approx B.4 constant_width                       0.52
+approx B.2 cubic_hc                             2.8
+approx deltamax-joint proportional_width        0.34
+approx deltamax-joint proportional_width_fig42  0.76
+approx permalloy-joint frequency_hc             0.76
+approx B.4 frequency_hc                         0.54
+approx B.1 rayleigh                             1.08
+approx B.3 rayleigh                             0.77
+approx B.5 proportional_width                   0.31
+approx B.5 proportional_width_fig42             0.67
+approx B.2 rayleigh                             0.75
+approx B.1 constant_width                       0.35
+approx permalloy-joint proportional_width       0.43
+approx permalloy-joint proportional_width_fig42 0.8
+approx B.3 constant_width                       0.28
+approx B.4 proportional_width                   0.34
+approx B.4 proportional_width_fig42             0.63
+approx B.2 constant_width                       0.69
+approx B.1 frequency_hc                         0.39
+approx B.3 frequency_hc                         0.42
+approx B.2 frequency_hc                         0.89
+approx B.1 proportional_width                   0.35
+approx B.1 proportional_width_fig42             0.51
+approx B.3 proportional_width                   0.29
+approx B.3 proportional_width_fig42             0.54
+approx B.2 proportional_width                   0.29
+approx B.2 proportional_width_fig42             0.59
+cv permalloy-joint jiles_atherton               26.01
+cv B.4 jiles_atherton                           11.18
+cv deltamax-joint preisach                      45.42
+cv B.5 preisach                                 31.43
+cv deltamax-joint cubic_hc                      13.55
+cv B.1 jiles_atherton                           7.35
+cv permalloy-joint preisach                     17.15
+cv B.3 jiles_atherton                           6.38
+cv B.4 preisach                                 7.7
+cv B.2 jiles_atherton                           3.73
+cv B.5 cubic_hc                                 13.6
+cv B.1 preisach                                 8.43
+cv B.3 preisach                                 3.85
+cv B.2 preisach                                 5.31
+cross permalloy 0.0 600.0 preisach              14.94
+cross permalloy 0.0 600.0 jiles_atherton        16.08
+cross permalloy 600.0 0.0 preisach              11.19
+cross permalloy 600.0 0.0 jiles_atherton        16.68
+cross deltamax 0.0 600.0 preisach               16.51
+cross deltamax 0.0 600.0 jiles_atherton         15.61
+cross deltamax 600.0 0.0 preisach               24.26
+cross deltamax 600.0 0.0 cubic_hc               39.24
+block B.1                                       15.09
+block B.3                                       12.1
+block B.2                                       13.97
+block B.5                                       19.46
+block B.4                                       16.59
+block permalloy-joint                           22.74
+block deltamax-joint                            28.42
+cross permalloy 0.0 600.0                       3
+cross permalloy 600.0 0.0                       3.16
+cross deltamax 0.0 600.0                        4.77
+cross deltamax 600.0 0.0                        3.9
+thesis                                          2.58
+"""
+
+#: First words of the keys of the jobs that are not least-squares fits.
+_KINDS = ("mcmc", "cv", "approx", "cross", "limit", "block", "thesis")
+
+
+def _words(key) -> tuple:
+    return tuple(str(k) for k in (key if isinstance(key, tuple) else str(key).split()))
+
+
+def job_kind(key) -> str:
+    """The kind of a report job: ``lsq``, ``mcmc``, ``cv``, ``approx``, ``cross``, ``limit`` or
+    ``figures`` (a block's, a cross-impedance direction's or the thesis graphs')."""
+    w = _words(key)
+    if w[0] in ("block", "thesis") or (w[0] == "cross" and len(w) == 4):
+        return "figures"
+    return w[0] if w[0] in _KINDS else "lsq"
+
+
+def _group(key) -> str:
+    """The block (or cross-impedance direction) of a job; empty for the others."""
+    w = _words(key)
+    kind = job_kind(w)
+    if kind == "lsq":
+        return w[0]
+    if kind in ("mcmc", "cv", "approx"):
+        return w[1]
+    if kind == "cross":
+        return " ".join(w[1:4])
+    return ""
+
+
+def _parse(text: str) -> dict:
+    rows = (line.rsplit(None, 1) for line in text.strip().splitlines())
+    return {key.strip(): float(s) for key, s in rows}
+
+
+_SECONDS = _parse(_TABLE)
+
+
+def _mean(kind: str, group: str) -> float:
+    """Mean seconds of the table's jobs of ``kind`` on ``group``, else of ``kind``, else 1."""
+    same = [s for k, s in _SECONDS.items() if job_kind(k) == kind]
+    closer = [s for k, s in _SECONDS.items() if job_kind(k) == kind and _group(k) == group]
+    return statistics.fmean(closer or same or [1.0])
+
+
+def expected_seconds(key) -> float:
+    """Seconds a job is expected to take on the committed report's machine.
+
+    Parameters
+    ----------
+    key : tuple or str
+        The job's key as the report runs it (``("B.1", "preisach")``, ``("mcmc", "B.5",
+        "cubic_hc")``, ``("block", "B.1")``, ...) or joined by spaces.
+
+    Examples
+    --------
+    >>> expected_seconds(("mcmc", "B.5", "preisach")) > expected_seconds(("B.5", "preisach"))
+    True
+    """
+    name = " ".join(_words(key))
+    if name in _SECONDS:
+        return _SECONDS[name]
+    return _mean(job_kind(key), _group(key))
+
+
+def unknown_laws(kind: str, group: str, n: int) -> list[tuple[str, float]]:
+    """``(kind, seconds)`` of ``n`` jobs of ``kind`` on ``group`` whose laws are not known yet:
+    the committed report's own jobs there when it ran ``n`` of them, else ``n`` times their mean
+    (longest first, as the report submits them)."""
+    own = sorted(
+        (s for k, s in _SECONDS.items() if job_kind(k) == kind and _group(k) == group),
+        reverse=True,
+    )
+    seconds = own if len(own) == n else [_mean(kind, group)] * n
+    return [(kind, s) for s in seconds]
+
+
+def phase_labels(settings) -> tuple[str, str, str]:
+    """What each phase of a run computes, naming only what ``settings`` compute: least
+    squares; then MCMC, cross-validation, the refits through the approximate chain,
+    cross-impedance and limit cycles, as far as they run; then the figures.
+
+    ``settings``: a :class:`~fitdf.report.build.ReportSettings` or its record in
+    ``results.json`` (``results["settings"]``).
+    """
+
+    def get(name):
+        return settings.get(name) if isinstance(settings, dict) else getattr(settings, name)
+
+    approx = get("approximate_chain")
+    second = [
+        name
+        for name, runs in (
+            ("MCMC", "mcmc" in (get("methods") or ()) and get("mcmc_top") != 0),
+            ("cross-validation", get("cv_top") != 0),
+            (f"{approx} refits", bool(approx)),
+            ("cross-impedance", bool(get("cross")) and get("cross_top") != 0),
+            ("limit cycles", bool(get("limit_cycles"))),
+        )
+        if runs
+    ]
+    return "least squares", ", ".join(second) or "nothing more", "figures"
+
+
+#: The order in which the report submits its second phase's kinds of job (long ones first).
+SECOND_PHASE_ORDER = ("limit", "mcmc", "approx", "cv", "cross")
+
+
+def _top(n, count: int) -> int:
+    """How many of ``count`` laws "the best ``n``" takes (None: all)."""
+    return count if n is None else min(max(int(n), 0), count)
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def plan(settings, models, blocks, lsq_keys, folds, labels) -> tuple[list, list]:
+    """The phases of a report run as planned before it starts, and what it computes.
+
+    Parameters
+    ----------
+    settings : ReportSettings
+        The run's settings (:class:`fitdf.report.build.ReportSettings`).
+    models, blocks : list of str
+        The laws and the block keys fitted.
+    lsq_keys : list of tuple
+        The least-squares jobs in the order they are submitted.
+    folds : dict
+        Block key -> its cross-validation folds (frequencies per source impedance).
+    labels : sequence of str
+        The labels of the three phases (:func:`phase_labels`); a second phase without jobs
+        is left out.
+
+    Returns
+    -------
+    phases : list of Phase
+    what : list of str
+        What the run computes, for :func:`start_line`.
+    """
+    sampled = [m for m in models if m not in settings.mcmc_skip]
+    n_mcmc = _top(settings.mcmc_top if "mcmc" in settings.methods else 0, len(sampled))
+    n_cv, n_cross = _top(settings.cv_top, len(models)), _top(settings.cross_top, len(models))
+    cross = list(settings.cross) if n_cross else []
+    second = [("limit", expected_seconds(("limit",)))] if settings.limit_cycles else []
+    for b in blocks:
+        second += unknown_laws("mcmc", b, n_mcmc) + unknown_laws("cv", b, n_cv)
+        if settings.approximate_chain:
+            second += [("approx", expected_seconds(("approx", b, m))) for m in models]
+    for core, train, test, *_ in cross:
+        second += unknown_laws("cross", f"{core} {train} {test}", n_cross)
+    second.sort(key=lambda job: (SECOND_PHASE_ORDER.index(job[0]), -job[1]))
+    cross_figures = [("cross", c, tr, te) for c, tr, te, train, _ in cross if train in blocks]
+    figures = [("block", b) for b in blocks] + cross_figures + [("thesis",)]
+    phases = [Phase(labels[0], tuple((job_kind(k), expected_seconds(k)) for k in lsq_keys))]
+    if second:
+        phases.append(Phase(labels[1], tuple(second)))
+    phases.append(Phase(labels[2], tuple((job_kind(k), expected_seconds(k)) for k in figures)))
+
+    what = [
+        f"{_plural(len(lsq_keys), 'least-squares fit')} ({_plural(len(models), 'law')} on "
+        f"{_plural(len(blocks), 'block')})"
+    ]
+    if n_mcmc:
+        what.append(_plural(n_mcmc * len(blocks), "MCMC chain"))
+    if n_cv:
+        n_folds = n_cv * sum(folds.get(b, 0) for b in blocks)
+        what.append(
+            f"{_plural(n_cv * len(blocks), 'cross-validation')} "
+            f"({_plural(n_folds, 'leave-one-frequency-out fold')})"
+        )
+    if settings.approximate_chain:
+        what.append(
+            f"{_plural(len(models) * len(blocks), 'refit')} through the "
+            f"{settings.approximate_chain} chain"
+        )
+    if cross:
+        what.append(_plural(n_cross * len(cross), "cross-impedance prediction"))
+    if settings.limit_cycles:
+        what.append("the limit-cycle comparison (Tables 5.1, 5.2)")
+    n_figures = (
+        (4 if n_mcmc else 3) * len(blocks)  # DF fits, loci, residuals (and a corner plot)
+        + len(cross_figures)
+        + len(THESIS_GRAPHS)
+        + int(settings.limit_cycles)
+        + 1  # the summary
+    )
+    what.append(f"{'up to ' if n_mcmc else ''}{n_figures} figures")
+    return phases, what
+
+
+def estimate(phases, workers: int) -> float:
+    """Seconds the ``phases`` take on ``workers`` workers at the committed machine's speed."""
+    return sum(schedule_length((s for _, s in p.planned), workers) for p in phases)
+
+
+def rough(settings) -> bool:
+    """Whether ``settings`` change what a job costs from the committed report's."""
+    return any(getattr(settings, k) != v for k, v in COMMITTED_SETTINGS.items())
+
+
+def table_text(results: dict) -> str:
+    """The text of :data:`_TABLE` for a report's results record (``results.json``)."""
+    jobs = results["timing"]["jobs_s"]
+    width = max(map(len, jobs))
+    return "\n".join(f"{k:<{width}} {s:g}" for k, s in jobs.items()) + "\n"
+
+
+def start_line(what: list[str], estimate_s: float, workers: int, *, rough=False, cached=False):
+    """The lines that open a run: what it computes, and about how long it takes.
+
+    Parameters
+    ----------
+    what : list of str
+        What the run computes, in order (``"56 least-squares fits (8 laws on 7 blocks)"``).
+    estimate_s : float
+        Its length at the committed machine's speed with ``workers`` workers.
+    rough : bool
+        The settings differ from the committed report's: its job times are a rough guide.
+    cached : bool
+        A job cache is in use: jobs an earlier run kept are read, not run.
+    """
+    run = COMMITTED_RUN
+    listed = f"{', '.join(what[:-1])} and {what[-1]}" if len(what) > 1 else what[0]
+    text = f"fitdf report: {listed}.\n"
+    text += (
+        f"About {duration_text(estimate_s)} with {workers} worker"
+        f"{'s' if workers != 1 else ''} at the speed of the machine the committed report was "
+        f"made on ({run['workers']} workers on {run['cores']} {run['cpu']} cores, "
+        f"{duration_text(run['total_s'])} for the full report)"
+    )
+    if rough:
+        text += (
+            "; these settings differ from that report's, so its job times are a rough guide "
+            "until jobs of each kind have run here"
+        )
+    if cached:
+        text += "; less for the jobs an earlier run kept in the cache"
+    return text + ". This machine's estimate follows as the first jobs finish."

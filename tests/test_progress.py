@@ -1,0 +1,266 @@
+"""The report's progress display (fitdf.report.progress, fitdf.report.costs): the time left is
+weighted by each job's expected cost and calibrated by what has been measured, on a fake clock;
+the phases name only what a run computes."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import pytest
+
+from fitdf.executor import Executor
+from fitdf.report import costs
+from fitdf.report.build import ReportSettings
+from fitdf.report.costs import phase_labels
+from fitdf.report.progress import Phase, RunProgress, duration_text, schedule_length
+
+COMMITTED = Path(__file__).resolve().parents[1] / "reports" / "results.json"
+
+
+class Clock:
+    """A clock the test moves by hand."""
+
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+#: Expected seconds of fake jobs, by key (``small0``, ``small1``, ...: 1 s each): kind "chain"
+#: for the chain, "fit" for the others.
+COST = {"a": 10.0, "b": 10.0, "c": 4.0, "chain": 100.0}
+
+
+def _cost(key):
+    return 1.0 if key.startswith("small") else COST[key]
+
+
+def _kind(key):
+    return "chain" if key == "chain" else "fit"
+
+
+def _display(phases, workers=2, clock=None, **kw):
+    return RunProgress(phases, _cost, workers, kind=_kind, clock=clock or Clock(), **kw)
+
+
+def test_schedule_is_the_greedy_one():
+    assert schedule_length([], 2) == 0.0
+    assert schedule_length([10.0, 10.0, 4.0], 2) == 14.0  # the 4 s job waits for a worker
+    assert schedule_length([10.0, 10.0, 4.0], 1) == 24.0
+    assert schedule_length([4.0], 2, busy=[6.0, 1.0]) == 6.0  # the worker free at 1 s takes it
+    assert schedule_length([], 2, busy=[3.0, 2.0, 5.0]) == 5.0  # more running than workers
+
+
+def test_time_left_follows_the_expected_costs_and_the_measured_ones():
+    clock = Clock()
+    planned = Phase("chains", (("chain", 100.0),))
+    fits = Phase("fits", (("fit", 10.0), ("fit", 10.0), ("fit", 4.0)))
+    p = _display([fits, planned], clock=clock, enabled=False)
+    # before anything runs: the plan at the reference machine's speed, 10 + 10 then 4, then 100
+    assert p.remaining() == 114.0 and p.ratio() is None
+    assert p.basis() == "at the reference machine's speed"
+    p.begin("fits", ["a", "b", "c"])
+    p.started("a"), p.started("b")
+    clock.now = 5.0
+    assert p.remaining() == 5.0 + 4.0 + 100.0
+    # "a" took twice its expected time: every fit, and the chain no fit calibrates, is
+    # expected to take twice as long (b has run 20 s of its 20)
+    clock.now = 20.0
+    p.finished("a", 20.0)
+    p.started("c")
+    assert p.ratio("fit") == 2.0 and p.ratio("chain") == 2.0
+    # b is due (a twentieth of its 20 s is still counted), c needs 8 s; then the chain 200 s
+    assert p.remaining() == pytest.approx(8.0 + 200.0)
+    clock.now = 28.0
+    p.finished("c", 8.0)
+    p.finished("b", 28.0)  # 28 s for 10 expected: fits now run at 56 / 24 of the committed times
+    assert p.ratio("fit") == pytest.approx(56.0 / 24.0)
+    p.begin("chains", ["chain"])
+    p.started("chain")
+    clock.now = 128.0  # the chain runs at the fits' ratio until it finishes: 233 s expected
+    assert p.remaining() == pytest.approx(100.0 * 56.0 / 24.0 - 100.0)
+    p.finished("chain", 150.0)  # then its own kind calibrates it
+    assert p.ratio("chain") == 1.5 and p.ratio("fit") == pytest.approx(56.0 / 24.0)
+    assert p.remaining() == 0.0
+    p.close()
+
+
+def test_progress_is_weighted_by_cost_not_by_count():
+    clock = Clock()
+    p = _display([Phase("all")], workers=1, clock=clock, enabled=False)
+    p.begin("all", [f"small{i}" for i in range(9)] + ["chain"])
+    for i in range(9):
+        p.started(f"small{i}")
+        clock.now += 1.0
+        p.finished(f"small{i}", 1.0)
+    # nine jobs of ten done, but 9 of 109 expected seconds
+    assert p.fraction_done() == pytest.approx(9.0 / 109.0)
+    assert p.label() == "1/1 all: 9/10 jobs" and p.remaining() == pytest.approx(100.0)
+    p.started("chain")
+    clock.now += 50.0  # half way through the chain: half of it counts as done
+    assert p.fraction_done() == pytest.approx(59.0 / 109.0)
+    p.close()
+
+
+def test_jobs_from_the_cache_are_done_but_not_measured():
+    p = _display([Phase("fits")], enabled=False)
+    p.begin("fits", ["a", "b", "c"], cached=["a", "b"])
+    assert p.ratio() is None and p.remaining() == 4.0
+    assert p.fraction_done() == pytest.approx(20.0 / 24.0)
+    assert p.label() == "1/1 fits: 2/3 jobs"
+
+
+def test_the_display_names_the_phase_and_the_basis_of_its_estimate():
+    out, clock = io.StringIO(), Clock()
+    phases = [Phase("least squares", (("fit", 10.0),)), Phase("figures", (("fit", 4.0),))]
+    with _display(phases, clock=clock, file=out, refresh_s=0) as p:
+        p.begin("least squares", ["a"])
+        p.started("a")
+        clock.now = 30.0
+        p.finished("a", 30.0)
+        p.begin("figures", ["c"])
+        p.started("c")
+    text = out.getvalue()
+    assert text.startswith(
+        "\r  0%|                | 00:00 elapsed, about 14 s left | 1/2 least squares: 0/1 jobs | "
+        "at the reference machine's speed"
+    )
+    assert "2/2 figures: 0/1 jobs" in text
+    # after the fit took 3 times its expected 10 s: the 4 s figure job is expected at 12 s
+    assert "1/2 least squares: 1/1 jobs done in 30 s; the rest: about 12 s" in text
+    assert "this machine: 3.00 x the committed job times, from 1 job" in text
+
+
+def test_a_run_stopped_early_is_not_reported_done():
+    out, clock = io.StringIO(), Clock()
+    with pytest.raises(KeyboardInterrupt):
+        with _display([Phase("fits")], clock=clock, file=out, refresh_s=0) as p:
+            p.begin("fits", ["a", "b"])
+            p.started("a")
+            clock.now = 3.0
+            raise KeyboardInterrupt
+    last = out.getvalue().split("\r")[-1]
+    assert "1/1 fits: 0/2 jobs | stopped" in last and "done" not in out.getvalue()
+
+
+def test_no_progress_prints_nothing(capsys):
+    p = RunProgress([Phase("fits")], _cost, 2, enabled=False)
+    p.begin("fits", ["a"])
+    p.started("a")
+    p.finished("a", 1.0)
+    p.close()
+    assert capsys.readouterr() == ("", "")
+
+
+class _Recorder:
+    """A display that writes down what the executor tells it."""
+
+    def __init__(self):
+        self.calls = []
+
+    def begin(self, desc, keys, cached):
+        self.calls.append(("begin", desc, tuple(keys), tuple(cached)))
+
+    def started(self, key):
+        self.calls.append(("started", key))
+
+    def finished(self, key, seconds):
+        self.calls.append(("finished", key))
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_executor_tells_its_display_every_job(workers):
+    jobs = {("a",): (pow, (2, 3)), ("b",): (pow, (3, 2)), ("c",): (abs, (-1,))}
+    with Executor(workers=workers) as ex:
+        ex.display = _Recorder()
+        assert ex.run(jobs, "phase") == {("a",): 8, ("b",): 9, ("c",): 1}
+    calls = ex.display.calls
+    assert calls[0] == ("begin", "phase", (("a",), ("b",), ("c",)), ())
+    for key in jobs:  # each job started once, then finished once
+        assert calls.count(("started", key)) == 1 and calls.count(("finished", key)) == 1
+        assert calls.index(("started", key)) < calls.index(("finished", key))
+
+
+# ------------------------------------------------------------------ the report's plan
+
+
+def _plan(settings):
+    models, blocks = settings.model_list(), [b.key for b in settings.block_list()]
+    lsq = [(b, m) for b in blocks for m in models]
+    folds = dict.fromkeys(blocks, 4)
+    return costs.plan(settings, models, blocks, lsq, folds, phase_labels(settings))
+
+
+def test_a_quick_run_names_no_mcmc():
+    quick = ReportSettings.for_run(quick=True)
+    labels = phase_labels(quick)
+    assert labels == ("least squares", "winding refits, cross-impedance, limit cycles", "figures")
+    phases, what = _plan(quick)
+    assert [p.label for p in phases] == list(labels)
+    text = " ".join(labels) + " ".join(what)
+    assert "MCMC" not in text and "cross-validation" not in text
+    full = phase_labels(ReportSettings.for_run())
+    assert full[1] == "MCMC, cross-validation, winding refits, cross-impedance, limit cycles"
+    bare = ReportSettings(
+        mcmc_top=0, cv_top=0, cross=(), limit_cycles=False, approximate_chain=None
+    )
+    phases, _ = _plan(bare)
+    assert [p.label for p in phases] == ["least squares", "figures"]  # no empty second phase
+
+
+def test_the_full_run_is_planned_as_the_committed_report_ran():
+    """At the committed machine's speed the plan of the full report takes about what the
+    committed report took: its own jobs, on its 2 workers."""
+    full = ReportSettings.for_run()
+    phases, what = _plan(full)
+    assert [len(p.planned) for p in phases] == [56, 100, 12]
+    assert what[:3] == [
+        "56 least-squares fits (8 laws on 7 blocks)",
+        "21 MCMC chains",
+        "14 cross-validations (56 leave-one-frequency-out folds)",
+    ]
+    assert what[-1] == "up to 41 figures"
+    total = costs.estimate(phases, 2)
+    assert total == pytest.approx(costs.COMMITTED_RUN["total_s"], rel=0.02)
+    assert not costs.rough(full) and costs.rough(ReportSettings.for_run(quick=True))
+    line = costs.start_line(what, total, 2)
+    assert "About 1 h 57 min with 2 workers" in line and "first jobs finish" in line
+
+
+def test_expected_seconds_of_jobs_the_table_lacks():
+    # a job of the committed report: its own time; another law: its kind's mean on the block
+    assert costs.expected_seconds(("mcmc", "B.5", "preisach")) == 1565.56
+    b5 = [1565.56, 1398.77, 109.65]
+    assert costs.expected_seconds(("mcmc", "B.5", "rayleigh")) == pytest.approx(sum(b5) / 3)
+    assert costs.unknown_laws("mcmc", "B.5", 3) == [("mcmc", s) for s in b5]
+    assert costs.job_kind(("cross", "permalloy", 0.0, 600.0)) == "figures"
+    assert costs.job_kind(("cross", "permalloy", 0.0, 600.0, "preisach")) == "cross"
+    assert costs.job_kind(("B.1", "preisach")) == "lsq"
+
+
+def test_durations_read_as_a_person_would_say_them():
+    assert [duration_text(s) for s in (42, 600, 7028, 25_000)] == [
+        "42 s",
+        "10 min",
+        "1 h 57 min",
+        "6 h 57 min",
+    ]
+
+
+@pytest.mark.skipif(not COMMITTED.exists(), reason="no committed reports/results.json")
+def test_the_cost_table_is_the_committed_reports():
+    committed = json.loads(COMMITTED.read_text())
+    if round(committed["timing"]["total_s"]) != costs.COMMITTED_RUN["total_s"]:
+        pytest.skip(
+            "reports/results.json was regenerated: refresh fitdf/report/costs.py "
+            "(_TABLE = costs.table_text(results), COMMITTED_RUN)"
+        )
+    assert costs._parse(costs.table_text(committed)) == costs._SECONDS
+    assert committed["timing"]["workers"] == costs.COMMITTED_RUN["workers"]
+    assert committed["timing"]["machine"]["cpu"] == costs.COMMITTED_RUN["cpu"]
+    assert {k: committed["settings"][k] for k in costs.COMMITTED_SETTINGS} == (
+        costs.COMMITTED_SETTINGS
+    )
