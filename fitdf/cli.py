@@ -37,7 +37,7 @@ EXIT_INTERNAL = 1
 
 #: Measurement chains (``fitdf.chains.chain_names()``) and the default chain
 #: (``fitdf.inference.api.DEFAULT_CHAIN``).
-CHAIN_CHOICES = ("direct", "winding", "voltage")
+CHAIN_CHOICES = ("direct", "winding", "voltage", "dynamic")
 DEFAULT_CHAIN = "voltage"
 #: ``fitdf.inference.ranking.METHOD_CHOICES`` and ``RANK_COLUMNS``.
 METHOD_CHOICES = ("lsq", "mcmc", "both")

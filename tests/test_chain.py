@@ -314,7 +314,7 @@ def test_negative_source_impedance_is_rejected():
 
 
 def test_registry():
-    assert chain_names() == ["direct", "winding", "voltage"]
+    assert chain_names() == ["direct", "winding", "voltage", "dynamic"]
     assert get_chain("winding") is WindingChain and get_chain(DirectChain) is DirectChain
     with pytest.raises(ModelError, match="known chains: direct, winding"):
         get_chain("transformer")

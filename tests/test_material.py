@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+import fitdf
 from fitdf.data.cores import (
     A_PER_M_PER_OERSTED,
     MU_0,
@@ -21,14 +22,14 @@ from fitdf.data.cores import (
 from fitdf.errors import OptionError
 from fitdf.inference.material import (
     CHECK_QUANTITIES,
-    SMALL_SIGNAL_RATIO,
     DETERMINED_BY,
+    SMALL_SIGNAL_RATIO,
     appendix_a_check,
     current_from_field,
     field_from_current,
     flux_linkage_from_induction,
-    inductance_from_permeability,
     implied_stacking_factor,
+    inductance_from_permeability,
     induction_from_flux_linkage,
     loop_landmarks,
     material_constants,
@@ -365,7 +366,9 @@ def test_what_the_data_determine():
     permeabilities carry the iron fraction; a joint 0 + 600 ohm fit fixes the scale."""
     ranges = appendix_a_ranges("permalloy")
     single = {r["quantity"]: r["determined"] for r in appendix_a_check(_values(), ranges)}
-    joint = {r["quantity"]: r["determined"] for r in appendix_a_check(_values(), ranges, joint=True)}
+    joint = {
+        r["quantity"]: r["determined"] for r in appendix_a_check(_values(), ranges, joint=True)
+    }
     data, iron = DETERMINED_BY[(False, False)], DETERMINED_BY[(True, False)]
     assert single["squareness_Br_over_Bp"] == joint["squareness_Br_over_Bp"] == data
     assert single["peak_flux_density_Bp"] == joint["peak_flux_density_Bp"] == iron
@@ -378,8 +381,6 @@ def test_what_the_data_determine():
 def test_material_record_of_a_fit_says_what_its_rows_determine():
     """A joint (0 + 600 ohm) fit fixes the current scale, a one-table fit does not; both carry
     the iron fraction their peak flux implies with Appendix A's B_p."""
-    import fitdf
-
     joint = fitdf.fit("permalloy", "rayleigh", chain="winding", method="lsq", n_starts=1)
     single = fitdf.fit("B.1", "rayleigh", chain="winding", method="lsq", n_starts=1)
     for result, expect in ((joint, DETERMINED_BY[(False, False)]), (single, None)):

@@ -1,24 +1,26 @@
 """Measurement chains: from a core's complex inductance ``N(I, f)`` to the measured DF.
 
-The thesis measured its cores as *voltage out over voltage in* under a sinusoidal source
-(section V.3), once with the generator straight on the winding and once through 600 ohm
-(section V.5). A model gives ``N``, the flux linkage per ampere of winding current; a
-chain maps ``N`` onto what the transfer-function analyser read:
+The thesis measured its cores as voltage out over voltage in under a sinusoidal source
+(section V.3), with the generator straight on the winding (Tables B.1, B.2) and through
+600 ohm (section V.5, Tables B.3-B.5). A law of :mod:`fitdf.models` gives ``N``, the flux
+linkage per ampere of winding current; a chain maps it onto what the transfer-function
+analyser read:
 
-* :class:`DirectChain` (``direct``) -- ``DF = N(V / input_scale)``: the textbook view in
-  which the core *is* the nonlinearity and the input voltage only sets its amplitude
-  scale. The model's own gain is the measured gain; there is no source impedance and no
-  phase lead (a passive loop has ``Im N <= 0``). The baseline for comparing shapes.
-* :class:`WindingChain` (``winding``) -- the circuit of Fig 5.10: source ``V``, series
-  resistance ``R = R_source + r_winding``, and the winding of impedance
-  ``Z(I, f) = j 2 pi f N(I, f)``. The current amplitude solves ``I |R + Z(I, f)| = V``
-  and the output (the core's EMF, read on a secondary winding) over the input is
-  ``DF = gain Z / (R + Z)``. Because ``Z`` leads the current by nearly 90 degrees and the
-  current lags ``V``, the output *leads* the input (Fig 5.10, Graphs 5.4, 5.12).
+* :class:`~fitdf.chains.voltage.VoltageChain` (``voltage``, the default) -- the circuit of
+  Fig 5.10 solved exactly: the periodic steady state of ``V sin(wt) = R i + d lambda/dt``
+  with ``R = R_source + r_winding``, whatever current waveform the loop makes; the output
+  ``gain d lambda/dt`` leads the input where the current lags it (Fig 5.10);
+* :class:`~fitdf.chains.winding.WindingChain` (``winding``) -- its sinusoidal-current
+  approximation: ``I |R + Z(I, f)| = V`` with ``Z = j 2 pi f N(I, f)``, and
+  ``DF = gain Z / (R + Z)``;
+* :class:`~fitdf.chains.direct.DirectChain` (``direct``) -- ``DF = N(V / input_scale)``:
+  the core as the nonlinearity itself, without source impedance and without phase lead
+  (a passive loop has ``Im N <= 0``); the baseline for comparing shapes (section V.4.1).
 
-Every chain has ``name``, ``title``, ``params`` and the class methods ``predict``,
-``core_current`` and ``operating_point``; ``model_theta`` ``(p,)`` or ``(batch, p)`` and
-``chain_theta`` ``(q,)`` or ``(batch, q)`` broadcast (MCMC walkers evaluate in one call).
+:func:`get_chain` returns a chain class by name (:data:`CHAINS`). Every chain has ``name``,
+``title``, ``params`` and the class methods ``predict``, ``core_current`` and
+``operating_point``; ``model_theta`` ``(p,)`` or ``(batch, p)`` and ``chain_theta`` ``(q,)``
+or ``(batch, q)`` broadcast, so MCMC walkers evaluate in one call.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from __future__ import annotations
 from fitdf.chains.base import R_MIN, MeasurementChain, OperatingPoint
 from fitdf.chains.current_solver import solve_current
 from fitdf.chains.direct import DirectChain
+from fitdf.chains.dynamic import DynamicChain
 from fitdf.chains.voltage import VoltageChain
 from fitdf.chains.winding import WindingChain
 from fitdf.errors import ModelError
@@ -35,6 +38,7 @@ __all__ = [
     "DirectChain",
     "WindingChain",
     "VoltageChain",
+    "DynamicChain",
     "OperatingPoint",
     "CHAINS",
     "get_chain",
@@ -45,7 +49,7 @@ __all__ = [
 
 #: Registered chains by name.
 CHAINS: dict[str, type[MeasurementChain]] = {
-    c.name: c for c in (DirectChain, WindingChain, VoltageChain)
+    c.name: c for c in (DirectChain, WindingChain, VoltageChain, DynamicChain)
 }
 
 

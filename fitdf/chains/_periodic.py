@@ -13,7 +13,8 @@ tables so):
 * :func:`half_period_wave` -- the same for one point, recording the waveform;
 * :func:`secant_update` -- one step of the per-point root search of the peak current.
 
-The method and its accuracy are described in :mod:`fitdf.chains.voltage`.
+The method is summarised in :mod:`fitdf.chains.voltage` and described in full in the
+documentation's method pages (measurement chains).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ __all__ = [
     "half_period_wave",
     "secant_update",
     "kernel_array",
+    "rate_current",
     "N_OUT",
 ]
 
@@ -42,9 +44,16 @@ def kernel_array(a, shape=None) -> np.ndarray:
     return np.array(a, order="C")
 
 
-#: Columns of :func:`half_periods`' output: peak current, flux harmonics (sin, cos),
-#: number of steps.
-N_OUT = 4
+#: Weight of BDF2's local-error estimate in the step control of the rate-dependent path
+#: (:func:`_integrate`). Against the time-stepping reference of
+#: ``tests/test_dynamic_chain.py`` (its twelve points) the largest DF error was 1.7e-4
+#: without the estimate, 1.3e-4, 3.6e-5 and 2.4e-4 at weights 10, 30 and 100 (at 100 the
+#: steps are so short that the table's own error shows, at 0 ohm in deep saturation).
+LTE_WEIGHT = 30.0
+
+#: Columns of :func:`half_periods`' output: peak current (of the branch), flux harmonics
+#: (sin, cos), number of steps, peak total current (the same on the static path).
+N_OUT = 5
 
 
 @numba.njit(cache=True)
@@ -162,7 +171,97 @@ def _refine(x, B, xr, Br):
 
 
 @numba.njit(cache=True)
-def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
+def rate_current(e, c_cl, c_ex):
+    """Rate-dependent current ``g(e) = c_cl e + c_ex sign(e) |e|^(1/2)`` (A) of the EMF ``e`` (V).
+
+    Bertotti's loss separation in the dynamic-field form (G. Bertotti, IEEE Trans. Magn. 24
+    (1988) 621; S.E. Zirka et al., IEEE Trans. Magn. 42 (2006) 2121): the field is
+    ``H_stat(B) + k_cl dB/dt + k_ex sign(dB/dt) |dB/dt|^(1/2)``; in winding units the
+    classical and excess terms are this current (:mod:`fitdf.chains.dynamic`).
+    """
+    r = np.sqrt(abs(e))
+    return c_cl * e + (c_ex * r if e >= 0.0 else -c_ex * r)
+
+
+@numba.njit(cache=True)
+def _dyn_emf(A, C, bq):
+    """Root ``e`` of ``A e + bq sign(e) |e|^(1/2) + C = 0`` (``A > 0``, ``bq >= 0``): exact.
+
+    The left side increases with ``e``, so ``e`` has the sign of ``-C``; with
+    ``u = |e|^(1/2)`` it is the quadratic ``A u^2 + bq u - |C| = 0``, whose positive root is
+    taken in the form without cancellation, ``2 |C| / (bq + sqrt(bq^2 + 4 A |C|))``.
+    """
+    if bq == 0.0:
+        return -C / A
+    m = abs(C)
+    u = 2.0 * m / (bq + np.sqrt(bq * bq + 4.0 * A * m))
+    return u * u if C < 0.0 else -u * u
+
+
+@numba.njit(cache=True)
+def _dyn_step(x, B, j, i, lam, R, alpha, beta, v, c_cl, c_ex, s_ext):
+    """One implicit step with the rate-dependent current: ``R i_h + R g(e) + e = v``.
+
+    ``e = alpha lam - beta`` is the step's difference quotient of the flux (BDF2 or the
+    trapezoidal first step) and ``lam = B(i_h)`` the table (linear between nodes, the last
+    cell's line beyond). The residual increases with ``i_h`` (``g`` and ``B`` do not fall),
+    so the cell is found by the pointer that only moves forward, as on the static path.
+    Inside the cell ``i_h`` is linear in ``e``: without the excess term the equation is
+    linear and solved exactly; with it, it is :func:`_dyn_emf`'s quadratic in
+    ``|e|^(1/2)``, solved exactly, and one Newton step in ``i_h`` removes the rounding of
+    ``e - e0`` on a nearly flat cell. On a flat the flux is fixed, the current takes the
+    rest of the voltage, and a negative EMF is clipped to 0 (as on the static path).
+    Returns ``(j, i_h, lam, e, flat)``; a step whose residual is already positive holds
+    the state (the current would fall) and returns ``e = 0``.
+    """
+    M = x.shape[0]
+    e = alpha * lam - beta
+    if R * i + R * rate_current(e, c_cl, c_ex) + e >= v:
+        return j, i, lam, 0.0, False
+    while j < M - 1:
+        e = alpha * B[j + 1] - beta
+        if R * x[j + 1] + R * rate_current(e, c_cl, c_ex) + e >= v:
+            break
+        j += 1
+    if j >= M - 1:  # beyond the tip: the last cell's line
+        x0, B0, s, dx = x[M - 1], B[M - 1], s_ext, np.inf
+    else:
+        x0, B0, dx = x[j], B[j], x[j + 1] - x[j]
+        s = (B[j + 1] - B0) / dx if dx > 0 else 0.0
+    e0 = alpha * B0 - beta
+    flat = s == 0.0
+    if flat:  # the flux is fixed, the current takes the rest of the voltage
+        e = e0
+        i_new = (v - e - R * rate_current(e, c_cl, c_ex)) / R
+        i_new = min(max(i_new, x0), x0 + dx)
+        lam_new = B0
+        if e < 0.0:  # on a flat the EMF is 0, never negative (as on the static path)
+            e = 0.0
+            i_new = v / R
+    else:
+        # in the current t beyond x0: e = e0 + alpha s t, residual r0 + a_lin t + R c_ex sqrt
+        a_lin = R + (1.0 + R * c_cl) * alpha * s
+        r0 = R * x0 + (1.0 + R * c_cl) * e0 - v
+        if c_ex == 0.0:  # linear: exact
+            t = -r0 / a_lin
+        else:
+            k = R / (alpha * s)  # di_h/de along the line
+            e = _dyn_emf(k + 1.0 + R * c_cl, R * x0 - k * e0 - v, R * c_ex)
+            t = (e - e0) / (alpha * s)
+            # one Newton step in t: e - e0 loses digits where the slope s is small
+            e = e0 + alpha * s * t
+            r = r0 + a_lin * t + R * rate_current(e, 0.0, c_ex)
+            if e != 0.0:
+                t -= r / (a_lin + 0.5 * R * c_ex * alpha * s / np.sqrt(abs(e)))
+        t = min(max(t, 0.0), dx)
+        i_new = x0 + t
+        lam_new = B0 + s * t
+        e = alpha * lam_new - beta
+    return j, max(i_new, i), lam_new, e, flat
+
+
+@numba.njit(cache=True)
+def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
     """One rising half period of ``R i + w dlam/dtheta = V sin(theta)``, ``lam = B(i)``.
 
     ``(x, B)``: the branch, non-decreasing, linear between nodes and continued beyond the
@@ -176,12 +275,20 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
     range) -- the sharp rise of the current into saturation -- where they shrink (down to
     ``pi / (64 n)``; a genuine jump onto a flat cannot be resolved and is accepted).
 
-    Returns ``(i_max, ls, lc, n_steps)``: the largest current reached -- including, when a
-    step lands on a flat (zero inductance, the current jumps), the current ``V sin/R`` at
-    the phase where the flux reached the flat, extrapolated over the step -- then
+    Returns ``(i_max, ls, lc, n_steps, i_peak)``: the largest current reached -- including,
+    when a step lands on a flat (zero inductance, the current jumps), the current ``V sin/R``
+    at the phase where the flux reached the flat, extrapolated over the step -- then
     ``(2/pi) int lam sin`` and ``(2/pi) int lam cos`` over the half period (trapezoid
-    rule): the full-period Fourier coefficients of the flux under half-wave symmetry. ``wave`` (``(K, 3)``, or ``(0, 3)``) receives ``theta, i, lam`` per step
-    (at most ``K - 1`` steps are recorded).
+    rule): the full-period Fourier coefficients of the flux under half-wave symmetry, the
+    number of steps and the largest total current. ``wave`` (``(K, 3)``, or ``(0, 3)``)
+    receives ``theta, i, lam`` per step (at most ``K - 1`` steps are recorded).
+
+    With ``c_cl`` or ``c_ex`` nonzero the winding current is ``i = i_h + g(e)``
+    (:func:`rate_current`, ``lam = B(i_h)``) and each step solves
+    ``R i_h + R g(e) + e = v`` by :func:`_dyn_step`; ``i_max`` is then the largest ``i_h``
+    (the branch's amplitude, whose root the search finds), ``i_peak`` and ``wave`` the total
+    current's. With both 0 the static step runs unchanged (bit-identical results) and
+    ``i_peak = i_max``.
     """
     M = x.shape[0]
     h0 = np.pi / n
@@ -197,9 +304,14 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
     i = x[0]
     lam = B[0]
     i_max = i
+    dyn = c_cl != 0.0 or c_ex != 0.0
+    i_tot = i  # total winding current (= i on the static path)
+    i_peak = i
     j = 0  # the current lies in cell [x[j], x[j + 1]] (j = M - 1: beyond)
     lam_1 = lam  # flux one step back
     h_1 = 0.0  # previous step (0: none yet)
+    lam_2 = lam  # two steps back, and the step before the previous (rate-dependent path)
+    h_2 = 0.0
     th = phi0
     s = np.sin(th)
     c = np.cos(th)
@@ -232,22 +344,47 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
             c_new = np.cos(th_new)
         v = V * s_new
         a = R
+        # the step's EMF is e = alpha lam_new - beta (used by the rate-dependent step)
         if h_1 == 0.0:  # trapezoidal first step (second order from the turning point)
             a = 0.5 * R
             coef = w / h
             rhs = coef * lam + 0.5 * (v + V * s) - 0.5 * R * i
+            alpha = 2.0 * coef
+            beta = alpha * lam + (V * s - R * i_tot)
         elif h == h0 and h_1 == h0:  # BDF2
             coef = coef0
-            rhs = v + w_h0 * (2.0 * lam - 0.5 * lam_1)
+            beta = w_h0 * (2.0 * lam - 0.5 * lam_1)
+            rhs = v + beta
+            alpha = coef
         else:  # variable-step BDF2
             r = h / h_1
             coef = w * (1.0 + 2.0 * r) / ((1.0 + r) * h)
-            rhs = v + (w / h) * ((1.0 + r) * lam - r * r / (1.0 + r) * lam_1)
+            beta = (w / h) * ((1.0 + r) * lam - r * r / (1.0 + r) * lam_1)
+            rhs = v + beta
+            alpha = coef
         j_new = j
         i_new = i
         lam_new = lam
+        e_new = 0.0
         jump = False
-        if a * i + coef * lam < rhs:  # else: the current would fall; hold it
+        if dyn:
+            j_new, i_new, lam_new, e_new, flat = _dyn_step(
+                x, B, j, i, lam, R, alpha, beta, v, c_cl, c_ex, s_ext
+            )
+            jump = flat and lam_new > lam
+            if e_new < 0.0 and not flat:
+                # The flux's extremum lies inside the step (BDF2 lets the flux still rise
+                # under a negative EMF): localise it, then hold. Rising on, i_h would creep
+                # past the peak by R g(e) / R = c_ex |e|^(1/2), which the square root makes
+                # large for the smallest |e|.
+                if h > h_min:
+                    h_try = max(0.25 * h, h_min)
+                    continue
+                j_new = j
+                i_new = i
+                lam_new = lam
+                e_new = 0.0
+        elif a * i + coef * lam < rhs:  # else: the current would fall; hold it
             while j_new < M - 1 and a * x[j_new + 1] + coef * B[j_new + 1] < rhs:
                 j_new += 1
             if j_new >= M - 1:  # beyond the tip: the last cell's line
@@ -267,13 +404,25 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
                 i_new = max(v / R, i)
             jump = flat and lam_new > lam
         move = (i_new - i) * inv_i + (lam_new - lam) * inv_l
+        if dyn and h_2 > 0.0 and lam_new > lam and i_new > i:
+            # BDF2's local error from the quadratic extrapolation of the flux, as a current
+            # through the step's chord: where the EMF collapses into saturation the current
+            # is most sensitive to the flux (and the square root makes the EMF's approach
+            # to 0 abrupt), while the step moves little
+            t0 = -(h_1 + h_2)
+            pred = (
+                lam_2 * (h_1 + h) * h / ((t0 + h_1) * t0)
+                + lam_1 * (h - t0) * h / ((h_1 + t0) * h_1)
+                + lam * (h - t0) * (h + h_1) / (t0 * -h_1)
+            )
+            move += LTE_WEIGHT * abs(lam_new - pred) * (i_new - i) / (lam_new - lam) * inv_i
         if move > dsig and h > h_min and not jump:
             h_try = max(h * max(0.2, 0.8 * dsig / move), h_min)
             continue  # reject; the pointer j is unchanged
         if jump:
             # The flux reached a flat inside this step: there the inductance vanishes
             # and the current jumps to V sin/R. Phase of arrival from the flux rate.
-            e_prev = V * s - R * i
+            e_prev = V * s - R * i_tot
             tau = 1.0
             if e_prev > 0:
                 tau = min((lam_new - lam) * w / (e_prev * h), 1.0)
@@ -286,12 +435,16 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
                     i_jump = min(i_jump, x[q])
             if i_jump > i_max:
                 i_max = i_jump
+            if i_jump > i_peak:
+                i_peak = i_jump
         # accept
         hh = 0.5 * (th_new - th)
         ls += hh * (lam * s + lam_new * s_new)
         lc += hh * (lam * c + lam_new * c_new)
         ss += hh * (s + s_new)
         sc += hh * (c + c_new)
+        h_2 = h_1
+        lam_2 = lam_1
         h_1 = h
         lam_1 = lam
         th = th_new
@@ -302,10 +455,13 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
         j = j_new
         if i > i_max:
             i_max = i
+        i_tot = i + rate_current(e_new, c_cl, c_ex) if dyn else i
+        if i_tot > i_peak:
+            i_peak = i_tot
         steps += 1
         if steps < K:
             wave[steps, 0] = th
-            wave[steps, 1] = i
+            wave[steps, 1] = i_tot
             wave[steps, 2] = lam
         h_try = h0 if move <= 0.5 * dsig else min(h0, 2.0 * h_1, h_1 * 0.8 * dsig / move)
         if h_try < h_min:
@@ -318,28 +474,30 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave):
     # coefficients are those of the EMF of the trajectory computed, smooth in ``I``.
     off = 0.5 * (B[0] + lam)
     f = 2.0 / np.pi
-    return i_max, (ls - off * ss) * f, (lc - off * sc) * f, float(steps)
+    return i_max, (ls - off * ss) * f, (lc - off * sc) * f, float(steps), i_peak
 
 
 @numba.njit(cache=True)
-def _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, start, stop):
+def _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, start, stop, c_cl, c_ex):
     M = x.shape[1]
     empty = np.empty((0, 3))
     xr = np.empty(2 * M - 1)
     Br = np.empty(2 * M - 1)
     for p in range(start, stop):
         _refine(x[p], B[p], xr, Br)
-        r = _integrate(xr, Br, V[p], R[p], w[p], phi0[p], n, dsig, empty)
+        r = _integrate(xr, Br, V[p], R[p], w[p], phi0[p], n, dsig, empty, c_cl[p], c_ex[p])
         for q in range(N_OUT):
             out[p, q] = r[q]
 
 
 @numba.njit(cache=True, parallel=True)
-def _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, chunks):
+def _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, chunks, c_cl, c_ex):
     P = x.shape[0]
     size = (P + chunks - 1) // chunks
     for c in numba.prange(chunks):
-        _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, c * size, min(P, (c + 1) * size))
+        _half_periods_rows(
+            x, B, V, R, w, phi0, n, dsig, out, c * size, min(P, (c + 1) * size), c_cl, c_ex
+        )
 
 
 #: Below this many rows times steps a call runs on one thread even when more are allowed
@@ -347,7 +505,7 @@ def _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, chunks):
 PARALLEL_WORK = 100_000
 
 
-def half_periods(x, B, V, R, w, phi0, n, dsig, out, threads=1):
+def half_periods(x, B, V, R, w, phi0, n, dsig, out, threads=1, c_cl=None, c_ex=None):
     """Rising half periods of the rows of the branch tables ``x``, ``B`` (``(P, M)``).
 
     Per row: amplitude ``V``, resistance ``R``, angular frequency ``w`` and starting phase
@@ -355,28 +513,32 @@ def half_periods(x, B, V, R, w, phi0, n, dsig, out, threads=1):
     receives the ``N_OUT`` values of :func:`_integrate` (the table is first made monotone
     and refined, :func:`_refine`). With ``threads > 1`` large calls are split over that
     many of numba's threads (on a machine whose cores are busy this is slower: measured in
-    ``benchmarks/bench_voltage.py``).
+    ``benchmarks/bench_voltage.py``). ``c_cl``, ``c_ex`` (``(P,)``, default 0): the
+    coefficients of the rate-dependent current (:func:`rate_current`) per row.
     """
     P = x.shape[0]
+    c_cl = np.zeros(P) if c_cl is None else kernel_array(c_cl, (P,))
+    c_ex = np.zeros(P) if c_ex is None else kernel_array(c_ex, (P,))
     if threads > 1 and P * n >= PARALLEL_WORK:
         # (numba's thread count is asked only here: it costs ~30 us a call, and this runs
         # at every step of every root search)
         chunks = min(int(threads), numba.get_num_threads(), P)
         if chunks > 1:
-            _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, chunks)
+            _half_periods_parallel(x, B, V, R, w, phi0, n, dsig, out, chunks, c_cl, c_ex)
             return
-    _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, 0, P)
+    _half_periods_rows(x, B, V, R, w, phi0, n, dsig, out, 0, P, c_cl, c_ex)
 
 
 @numba.njit(cache=True)
-def half_period_wave(x, B, V, R, w, phi0, n, dsig, wave):
+def half_period_wave(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
     """One row of :func:`half_periods`, recording ``theta, i, lam`` of each step into the
-    rows of ``wave`` (``(K, 3)``); returns the values of :func:`_integrate`."""
+    rows of ``wave`` (``(K, 3)``; ``i`` is the total current); returns the values of
+    :func:`_integrate`."""
     M = x.shape[0]
     xr = np.empty(2 * M - 1)
     Br = np.empty(2 * M - 1)
     _refine(x, B, xr, Br)
-    return _integrate(xr, Br, V, R, w, phi0, n, dsig, wave)
+    return _integrate(xr, Br, V, R, w, phi0, n, dsig, wave, c_cl, c_ex)
 
 
 # ---------------------------------------------------------------- root search, per point

@@ -1,104 +1,41 @@
 r"""The ``voltage`` chain: the exact periodic steady state of the circuit of Fig 5.10.
 
-The circuit (thesis section V.5, Fig 5.10) is a sinusoidal source ``V sin(wt)`` in
-series with ``R = R_source + r_winding`` and the core's winding, whose flux linkage
-``lambda`` follows the law's hysteresis loop:
+Provides :class:`VoltageChain` (registered as ``voltage``, the default chain of every fit),
+its numerical settings :class:`VoltageSettings`, and :func:`steady_state_waveform`, one
+point's current, flux linkage and output over a whole period (:class:`SteadyState`).
+
+A sinusoidal source drives the core's winding through ``R = R_source + r_winding``
+(thesis section V.5, Fig 5.10), and the winding's flux linkage ``lambda`` follows the
+law's hysteresis loop::
 
     V sin(wt) = R i + d lambda / dt,        output = gain d lambda / dt.
 
-The ``winding`` chain assumes the *current* is sinusoidal (``I |R + Z(I)| = V``); this
-chain solves the circuit as it is, with whatever current the voltage drive makes
-(Photos 8, 9 and the end of section V.5: "introducing resistance in series also changes
-the current wave shape"). The DF is the output's first harmonic over ``V`` with the
-convention of :mod:`fitdf.describing` (``angle > 0`` is a lead).
+The DF is the output's first harmonic over ``V`` with the convention of
+:mod:`fitdf.describing` (``angle > 0`` is a lead). Unlike the ``winding`` chain, this chain
+assumes no current waveform: the current takes whatever shape the loop and the drive give
+it ("introducing resistance in series also changes the current wave shape", end of section
+V.5; Photos 8, 9).
 
-Method
-------
-*Steady state on one loop.* In the half-wave-symmetric steady state the current rises
-monotonically from ``-I_p`` to ``I_p`` over half a period and falls back over the other
-half; the core then runs exactly the law's loop of amplitude ``I_p`` (rising branch
-``B(i) = ascending_branch(i, I_p)``). At the current minimum the EMF
-``e = V sin(wt) - R i`` vanishes (``d lambda/di > 0``) or the current follows
-``V sin(wt) / R`` (a flat, ``d lambda/di = 0``); either way the turning point is at the
-phase ``phi0 = -arcsin(R I_p / V)`` where ``e`` rises through zero. Starting there from
-``i = -I_p`` the rising half is integrated along ``B``; the largest current reached,
-``i_peak(I_p)``, must equal ``I_p``. ``G(I_p) = i_peak - I_p`` is positive for small
-``I_p`` and ``<= 0`` at ``V / R`` (while the current rises, ``R i <= V sin(wt) <= V``),
-so a root exists; it is found for all points at once (below).
-
-*First harmonic.* With half-wave symmetry the output's Fourier coefficients are twice
-the half-period integrals, and integrating ``e = w d lambda/d(wt)`` by parts (the
-boundary term cancels, ``lambda`` and ``sin`` both change sign over half a period) gives
-``DF = gain j w Lambda_1 / V``, ``Lambda_1 = (2/pi) int lambda (sin + j cos) d(wt)``
-(trapezoid rule on the steps): the flux is the smooth variable (the current jumps onto
-saturation flats; ``V = R I_1 + j w Lambda_1`` for the exact solution, and the current
-form loses digits when ``DF`` is small). The flux is measured from the midpoint of its
-values at the two ends of the half period: that is the by-parts boundary term, zero at
-the exact root but ``B'(I) G / 2`` at every amplitude the search tries, which on the
-steep side of a nearly rectangular loop (``B'`` ~ 10^3 H) moved the DF by order 1 for a
-``G`` of 1e-7 A; with it the coefficients are those of the EMF of the trajectory
-computed, smooth in ``I_p``. The scheme's EMF at the nodes is BDF2's
-difference quotient of the flux, whose response to ``exp(j theta)`` is ``1 + 8.9e-5``
-times the derivative's at 192 steps; multiplying by that factor removes the leading
-dispersion error.
-
-*Integration* (:mod:`fitdf.chains._periodic`, compiled). The branch is tabulated at
-``nodes`` currents placed along the curve: equal shares of current range, flux swing and
-bending, from a uniform table of ``placement_nodes`` and again from the table that gives
-(and up to three more times where one cell still holds a fifth of the flux swing: an
-almost rectangular loop, whose narrow step moves in ``u = i / I_p`` as ``I_p`` changes,
-so those points are placed anew at every amplitude tried). Nodes are also placed anew
-wherever, at the amplitude tried, one cell holds more than a fifth of the swing and 1.5
-times the largest share it had where they were placed: the loop changed shape under
-them (nodes placed inside a dead zone, ``I_p`` below the coercive current, resolve no
-loop at all; a steep side opening as ``I_p`` passes it widens by far more than
-``dI_p / I_p``). The table is made monotone (a
-falling part, e.g. the Fig 4.2 loop with ``m > 0.5``, becomes a flat: the flux cannot
-fall while the current rises, the current jumps) and refined: each cell is split at the
-exact kink when the cells on both sides are straight (piecewise-linear laws are then
-represented exactly wherever their kinks fall), or at its midpoint bent by the local
-curvature on smooth stretches (the 4-point cubic on an even grid). Beyond the tip the
-last cell's line continues the branch. The ODE in the phase ``theta = wt``,
-``R i + w d lambda/d theta = V sin theta``, is stepped with BDF2 (``steps`` per half
-period, a trapezoidal first step from the turning point; steps shrink where the state
-moves fast along the branch, e.g. the sharp rise of the current into a soft
-saturation), each implicit step ``a i + c B(i) = rhs`` solved exactly on the
-piecewise-linear table with a pointer that only moves forward (the current is
-monotone). Flats (dead zones, hard saturation) need nothing special: there the step
-gives ``i = (V sin - e)/R`` and the current takes the voltage (an EMF that BDF2 would
-make negative after the flux stops is clipped to 0); where the flux reaches a flat with
-``e > 0`` the current jumps (zero inductance), and the phase of arrival is interpolated
-inside the step, so ``i_peak`` stays second-order accurate when the peak is such a jump.
-
-*Root.* Two stages, vectorised over the points still unconverged, each step of the
-search compiled per point (:func:`_search`): (1) coarse tables (``coarse_nodes``
-uniform, ``coarse_steps``, the law's rough branch: for Jiles-Atherton a coarser steady
-loop, the exact branch for the others) from a guess -- ``initial_current``, or the
-amplitude at which a sinusoidal flux of the loop tip's size would need ``V``,
-``hypot(R a, w B(a; a)) = V`` -- to ``coarse_tol``; (2) fine tables on nodes placed at
-the coarse root, secant steps started with the coarse slope (at most 1 % each until
-bracketed), and the DF interpolated linearly in ``I_p`` through the last pair at the
-secant root (its error is
-``DF''/2`` times the distances to both points: accepted when the linear correction is at
-most ``df_tol``). ``G`` jumps where the peak current is reached by a jump onto a
-saturation flat exactly at the half period (the steady state sits on the edge, common
-at 0 ohm above the knee): the search detects the jump from inconsistent secant slopes,
-extrapolates the side where ``G`` tends to 0, and bisects; the DF is continuous there and
-is interpolated across the final bracket.
-
-*Limits.* The method assumes one monotone rise and fall of the current per period (no
-minor loops, no subharmonics); a law whose loops are not nested can make ``G`` jump over
-0 (e.g. the Fig 4.2 loop at some drives): the edge is then returned, as the references
-of the tests do. The discrete decisions (step refinement, node placement, convergence)
-make the DF jitter by up to ~1e-5 (1e-4 at the edge of a jump) between parameter sets a
-hair apart: finite-difference Jacobians need steps above that.
-
-Accuracy and speed are measured in ``benchmarks/bench_voltage.py`` and listed in
-``benchmarks/README.md`` ("The voltage chain"): with the defaults ``|DF - DF_exact|`` is
-at most ~2e-4 for every registered law at 0 and 600 ohm (against exact piecewise-linear
-integration and ``solve_ivp``, ``tests/test_voltage_chain.py``); at the report's own fits of
-the piecewise-linear laws and around them (Deltamax's nearly rectangular loops included)
-at most 5e-4 (``benchmarks/audit_voltage_fits.py``).
+Notes
+-----
+In the half-wave-symmetric steady state the current rises monotonically from ``-I_p`` to
+``I_p`` over half a period, so the core runs exactly the law's loop of amplitude ``I_p``.
+The rising half is integrated along that loop's ascending branch from the phase
+``phi0 = -arcsin(R I_p / V)`` at which the EMF rises through zero (BDF2 steps on a
+piecewise-linear table of the branch, each implicit step solved exactly; compiled in
+:mod:`fitdf.chains._periodic`), and ``I_p`` is the root of ``G(I_p) = i_peak - I_p``, found
+for all points at once by a coarse and then a fine secant search that also handles the
+jumps of ``G`` where the peak is reached by a jump onto a saturation flat. The first
+harmonic is taken from the flux, ``DF = gain j w Lambda_1 / V`` with
+``Lambda_1 = (2/pi) int lambda (sin + j cos) d(wt)``, corrected for BDF2's dispersion.
+The method assumes one monotone rise and fall of the current per period (no minor loops,
+no subharmonics). With the default :class:`VoltageSettings` the DF is accurate to about
+2e-4 for every registered law at 0 and 600 ohm, against exact piecewise-linear integration
+and ``scipy.integrate.solve_ivp`` (``tests/test_voltage_chain.py``,
+``benchmarks/bench_voltage.py``); its discrete decisions (step refinement, node placement,
+convergence) make it jitter by up to ~1e-5 (1e-4 at the edge of a jump) between parameter
+sets a hair apart, so finite-difference Jacobians need steps above that. The full method
+is in the documentation's method pages (measurement chains).
 """
 
 from __future__ import annotations
@@ -152,8 +89,8 @@ class VoltageSettings:
     weights : tuple of float
         Shares of current range, flux swing and bending in the node placement.
     threads : int
-        numba threads for large kernel calls (1: none; on a machine whose two cores are
-        shared, threads were slower, see ``benchmarks/README.md``).
+        numba threads for large kernel calls (1: none; on two shared cores threads are
+        slower, ``benchmarks/README.md``).
     """
 
     steps: int = 192
@@ -173,10 +110,12 @@ class VoltageSettings:
 class _Points:
     """Flat per-point data of one call and the branch tables/kernel runs on subsets."""
 
-    def __init__(self, model, V, f, R, kw, threads=1):
+    def __init__(self, model, V, f, R, kw, threads=1, rate=None):
         self.model, self.V, self.f, self.R, self.kw = model, V, f, R, kw
         self.w = 2.0 * np.pi * f
         self.threads = threads
+        # coefficients (c_cl, c_ex) of the rate-dependent current per point, or None
+        self.rate = rate
 
     def branch(self, idx, x, a, rough=False):
         """``B(x; a)`` at the points ``idx``; ``x`` is ``(m, K)``, ``a`` is ``(m,)``; with
@@ -185,9 +124,10 @@ class _Points:
         law = self.model.rough_branch if rough else self.model.ascending_branch
         return kernel_array(law(x, a[:, None], self.f[idx, None], **kw), x.shape)
 
-    def run(self, idx, a, u, steps, refine_factor, rough=False, B=None):
+    def run(self, idx, a, u, steps, refine_factor, rough=False, B=None, peak=False):
         """Kernel on tables at nodes ``u`` (``(m, M)`` or ``(M,)``): ``(G, DF without gain, B)``;
-        ``B``, if given, is the branch at those nodes (already evaluated)."""
+        ``B``, if given, is the branch at those nodes (already evaluated); with ``peak``, the
+        excess of the largest total current over the largest ``i_h`` is appended."""
         u = np.broadcast_to(u, (idx.size, np.shape(u)[-1]))
         x = np.ascontiguousarray(a[:, None] * u)
         if B is None:
@@ -195,6 +135,7 @@ class _Points:
         V, R = self.V[idx], self.R[idx]
         phi0 = -np.arcsin(np.minimum(R * a / V, 1.0))
         out = np.empty((idx.size, N_OUT))
+        c_cl, c_ex = (None, None) if self.rate is None else (c[idx] for c in self.rate)
         half_periods(
             x,
             B,
@@ -206,8 +147,12 @@ class _Points:
             refine_factor * np.pi / steps,
             out,
             self.threads,
+            c_cl,
+            c_ex,
         )
         df = 1j * _bdf2_response(steps) * self.w[idx] * (out[:, 1] + 1j * out[:, 2]) / V
+        if peak:  # by how much the total current's peak exceeds the branch's (rate-dependent)
+            return out[:, 0] - a, df, B, out[:, 4] - out[:, 0]
         return out[:, 0] - a, df, B
 
 
@@ -406,11 +351,12 @@ def _search(
     return F[:, 6], C[:, 0], F[:, 8], C[:, 1], X[:, 2]
 
 
-def _solve(model, V, f, R, kw, initial, st: VoltageSettings):
+def _solve(model, V, f, R, kw, initial, st: VoltageSettings, rate=None):
     """Peak currents, DFs (without gain), fine nodes ``u`` and the largest current tried
-    with ``G > 0`` (NaN: none) for flat point arrays."""
+    with ``G > 0`` (NaN: none) for flat point arrays. ``rate``: ``(c_cl, c_ex)`` per point
+    of the rate-dependent current (:mod:`fitdf.chains.dynamic`), or None."""
     P = V.size
-    pts = _Points(model, V, f, R, kw, st.threads)
+    pts = _Points(model, V, f, R, kw, st.threads, rate)
     current = np.zeros(P)
     df = np.zeros(P, complex)
     u_fine = np.broadcast_to(np.linspace(-1.0, 1.0, st.nodes), (P, st.nodes)).copy()
@@ -541,6 +487,12 @@ class VoltageChain(MeasurementChain):
         return model, shape, V, f, R, flat, mkw, ckw
 
     @classmethod
+    def _rate(cls, ckw, shape):
+        """Flat per-point ``(c_cl, c_ex)`` of a rate-dependent current, or None (static core;
+        :class:`fitdf.chains.dynamic.DynamicChain` overrides this)."""
+        return None
+
+    @classmethod
     def _solve(
         cls,
         model,
@@ -557,7 +509,9 @@ class VoltageChain(MeasurementChain):
         initial = None
         if initial_current is not None:
             initial = np.broadcast_to(np.asarray(initial_current, float), shape).ravel()
-        current, df, _, _ = _solve(model, V, f, R, flat, initial, cls.settings)
+        current, df, _, _ = _solve(
+            model, V, f, R, flat, initial, cls.settings, cls._rate(ckw, shape)
+        )
         gain = np.broadcast_to(ckw["gain"], shape)
         return model, current.reshape(shape), gain * df.reshape(shape), mkw, f.reshape(shape)
 
@@ -647,7 +601,9 @@ def steady_state_waveform(
         raise ModelError(
             "steady_state_waveform takes one point (scalar amplitude, frequency, impedance)"
         )
-    current, df, u, below = _solve(model, V, f, R, flat, None, st)
+    rate = chain._rate(ckw, shape)
+    current, df, u, below = _solve(model, V, f, R, flat, None, st, rate)
+    c_cl, c_ex = (0.0, 0.0) if rate is None else (float(c[0]) for c in rate)
     I, V0, R0, w = float(current[0]), float(V[0]), float(R[0]), 2 * np.pi * float(f[0])
     gain = float(np.ravel(ckw["gain"])[0])
     kw = {k: v[:, None] for k, v in flat.items()}
@@ -672,6 +628,8 @@ def steady_state_waveform(
             st.steps,
             st.refine_factor * np.pi / st.steps,
             up,
+            c_cl,
+            c_ex,
         )
         return phi0, up, r
 
@@ -705,7 +663,7 @@ def steady_state_waveform(
     B2 = np.ascontiguousarray(B2 - B2[0] - lam_end, float)
     down = np.zeros((K, 3))
     r2 = half_period_wave(
-        x2, B2, V0, R0, w, phi0, st.steps, st.refine_factor * np.pi / st.steps, down
+        x2, B2, V0, R0, w, phi0, st.steps, st.refine_factor * np.pi / st.steps, down, c_cl, c_ex
     )
     n2 = int(r2[3])
     # the turning point is kept twice when the peak is a jump (same phase, both currents)

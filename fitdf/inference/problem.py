@@ -110,7 +110,9 @@ class FitProblem:
                 chain_specs.append(spec)
         model_specs = list(self.model.params)
         if geometry is not None and self.chain.winding_units:
+            # (chain parameters with a physical quantity too: the dynamic chain's loss terms)
             model_specs = [physical_spec(s, geometry) for s in model_specs]
+            chain_specs = [physical_spec(s, geometry) for s in chain_specs]
         self.all_specs: list[ParamSpec] = model_specs + chain_specs
         unknown = set(self.fixed) - {s.name for s in self.all_specs}
         if unknown:

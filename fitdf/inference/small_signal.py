@@ -33,9 +33,16 @@ import pandas as pd
 from fitdf.chains.winding import reading
 from fitdf.errors import ModelError
 from fitdf.models._preisach_history import preisach_output
-from fitdf.params import PER_TABLE, parameter_base
+from fitdf.params import PER_TABLE, calibration_gain, parameter_base
 
-__all__ = ["biased_describing_function", "small_signal_rows", "small_signal_scan", "verdict"]
+__all__ = [
+    "biased_describing_function",
+    "small_signal_rows",
+    "small_signal_scan",
+    "verdict",
+    "series_permeability",
+    "small_signal_permeability",
+]
 
 #: Samples per period of the biased-loop DF (the history is exact between samples; the
 #: first harmonic by the trapezoidal rule is spectrally accurate on a periodic signal).
@@ -173,4 +180,78 @@ def verdict(scan: pd.DataFrame) -> str:
         "implies a larger loss angle than any bias gives the fitted law "
         f"(largest implied {scan['implied_loss_angle_deg'].max():.0f} deg, largest reachable "
         f"{scan['max_loss_angle_any_bias_deg'].max():.0f} deg)"
+    )
+
+
+def series_permeability(df, frequency, resistance, gain, geometry):
+    """Complex relative permeability ``mu' - j mu''`` of the winding read through Fig 5.10.
+
+    The reading of a winding of impedance ``Z`` behind ``R`` is ``DF = gain Z / (R + Z)``
+    (section V.5, :func:`fitdf.chains.winding.reading`), so ``Z = R DF / (gain - DF)``; its
+    series inductance ``L = Z / (j w)`` as relative permeability,
+    ``mu = L l_e / (mu_0 N^2 A_e)`` (:meth:`fitdf.data.cores.CoreGeometry.relative_permeability`).
+    The quality factor is ``Q = Im Z / Re Z = mu' / mu''``. Exact for a linear winding; at
+    the small-signal rows the core is nearly linear and the first harmonics carry the rest.
+
+    Parameters
+    ----------
+    df : array_like of complex
+        Readings (measured or predicted), ``angle > 0`` a lead.
+    frequency, resistance, gain : array_like
+        Hz; total series resistance ``R_source + r_winding`` (ohm); the reading's gain.
+    geometry : CoreGeometry
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        ``mu' - j mu''`` (``mu'' > 0`` for a lossy core).
+    """
+    df = np.asarray(df, complex)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Z = np.asarray(resistance, float) * df / (np.asarray(gain, float) - df)
+    L = Z / (2j * np.pi * np.asarray(frequency, float))
+    return L / geometry.inductance_per_permeability
+
+
+def small_signal_permeability(result, geometry=None) -> pd.DataFrame:
+    """Series permeability and Q at the smallest-input row of each block, measured and fitted.
+
+    Both readings, the measured one and the fit's prediction (its chain: for the
+    ``dynamic`` chain the rate-dependent losses included), are inverted through the circuit
+    of Fig 5.10 with the fit's own ``R = R_source + r_winding`` and gain
+    (:func:`series_permeability`), so the two columns differ only by what the fit does not
+    reproduce. ``geometry``: the fit's (default) or another :class:`CoreGeometry`.
+    """
+    problem = result.problem
+    geometry = geometry or problem.geometry
+    if geometry is None:
+        raise ModelError("the small-signal permeability needs the core's geometry")
+    data = problem.data
+    rows = small_signal_rows(data)
+    values = result.values
+    table = np.asarray(data.group)[rows]
+    gain = np.array([values.get(f"gain[{t}]", calibration_gain(values)) for t in table])
+    f = np.asarray(data.frequency, float)[rows]
+    Rs = np.asarray(data.source_impedance, float)[rows]
+    R = Rs + values.get("r_winding", 0.0)
+    measured = np.asarray(data.measured)[rows]
+    fitted = problem.predict(result.internal)[rows]
+    mu_m = series_permeability(measured, f, R, gain, geometry)
+    mu_f = series_permeability(fitted, f, R, gain, geometry)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q_m, q_f = mu_m.real / -mu_m.imag, mu_f.real / -mu_f.imag
+    return pd.DataFrame(
+        {
+            "row": rows,
+            "table": table,
+            "source_impedance_ohm": Rs,
+            "frequency_hz": f,
+            "input_v": np.asarray(data.amplitude, float)[rows],
+            "measured": measured,
+            "fitted": fitted,
+            "mu_measured": mu_m.real,
+            "q_measured": q_m,
+            "mu_fitted": mu_f.real,
+            "q_fitted": q_f,
+        }
     )
