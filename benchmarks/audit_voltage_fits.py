@@ -59,7 +59,7 @@ def audit(law: str, block: str, fits: dict, scatter: int, seed: int) -> None:
     for i, x in enumerate(sets):
         nat = problem.full_natural(x)
         theta = [float(nat[s.name]) for s in problem.model.params]
-        r_w = float(nat["r_winding"])
+        r_w = float(nat["r_series"])
         op = VoltageChain.operating_point(
             problem.model, d.amplitude, d.frequency, d.source_impedance, theta, [r_w, 1.0]
         )

@@ -62,7 +62,7 @@ REFERENCE = (1e-11, 96)
 CANDIDATES = [(1e-8, 24), (3e-8, 24), (1e-7, 24), (1e-7, 16), (3e-7, 16), (1e-6, 24), (1e-6, 12)]
 BRANCH_LIMIT = 2e-5
 #: Fixed inputs of the timings: least-squares Jiles-Atherton fits of each report block (taken
-#: when zeta was bounded at 0.99), the core, then ``(lambda_s, a, k, c, zeta, r_winding)``.
+#: when zeta was bounded at 0.99), the core, then ``(lambda_s, a, k, c, zeta, r_series)``.
 REPORT_FITS = {
     "B.1": ("permalloy", (0.044227, 3.68e-4, 8.72e-4, 0.163991, 0.99, 53.61)),
     "B.3": ("permalloy", (0.040635, 3.24e-4, 4.54e-4, 0.114519, 0.99, 53.76)),
@@ -121,7 +121,7 @@ def rough_coarse_stage(problem, repeats):
     """One ``voltage`` predict at the report's Permalloy fit with the coarse stage and the
     guess on the rough branch (the default) and on the exact branch, interleaved."""
     lam, a, k, c, zeta, r_w = REPORT_FITS["permalloy"][1]
-    values = dict(lambda_s=lam, a=a, k=k, c=c, zeta=zeta, r_winding=r_w)
+    values = dict(lambda_s=lam, a=a, k=k, c=c, zeta=zeta, r_series=r_w)
     values.update({n: 1.0 for n in problem.names if n.startswith("gain")})
     point = problem.to_internal(values)
     rough = JilesAtherton.__dict__["rough_branch"]

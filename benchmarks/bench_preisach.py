@@ -44,7 +44,7 @@ REPORT_FITS = {
         i_i=9.894e-5,
         l_rev=6.148,
         f_rev=0.1317,
-        r_winding=52.41,
+        r_series=52.41,
         gain=1.057,
     ),
     "B.5": dict(
@@ -54,7 +54,7 @@ REPORT_FITS = {
         i_i=1.146e-4,
         l_rev=0.5311,
         f_rev=0.007429,
-        r_winding=30.66,
+        r_series=30.66,
         gain=0.8118,
     ),
 }

@@ -124,7 +124,7 @@ def speed(quick):
                     resistance=rs + R_WINDING,
                     gain=1.0,
                     source_impedance=rs,
-                    chain_theta={"r_winding": R_WINDING, "gain": 1.0},
+                    chain_theta={"r_series": R_WINDING, "gain": 1.0},
                 )
                 sim_df[sel] = simulated_describing_function(el, V[sel], f[sel], **kw_sim)
 

@@ -124,7 +124,7 @@ def what_the_data_need(res):
     for f in np.unique(data.frequency):
         for k in [j for j in order if data.frequency[j] == f][:3]:
             V, D = float(data.amplitude[k]), complex(data.measured[k])
-            R = float(data.source_impedance[k]) + v["r_winding"]
+            R = float(data.source_impedance[k]) + v["r_series"]
             mu = complex(series_permeability(D, f, R, gain, GEOMETRY))
             w = 2 * np.pi * f
             Y = 1 / (mu * GEOMETRY.inductance_per_permeability * 1j * w)
@@ -153,7 +153,7 @@ def capability(res):
     V, fr, Rs = data.amplitude[pick], data.frequency[pick], data.source_impedance[pick]
     v = res.values
     law = [v[s.name] for s in res.problem.model.params]
-    R, gain = Rs + v["r_winding"], v["gain"]
+    R, gain = Rs + v["r_series"], v["gain"]
     mu_m = series_permeability(data.measured[pick], fr, R, gain, GEOMETRY)
     print(
         f"\nwhat the terms can do on the voltage fit's law (rows {V[0]} V {fr[0]:.0f} c/s and "
@@ -167,7 +167,7 @@ def capability(res):
         spec = DynamicChain.params[j]
         grid = np.geomspace(spec.bounds[0], spec.bounds[1], 13)
         ct = np.zeros((grid.size, 4))
-        ct[:, 0], ct[:, 1], ct[:, j] = v["r_winding"], gain, grid
+        ct[:, 0], ct[:, 1], ct[:, j] = v["r_series"], gain, grid
         df = DynamicChain.predict("preisach", V, fr, Rs, law, ct)
         mu = series_permeability(df, fr, R, gain, GEOMETRY)
         for c, m in zip(grid, mu):
@@ -178,7 +178,7 @@ def capability(res):
         # the largest fall that leaves the 3 c/s row's mu' within 20 % of the measured one
         fine = np.geomspace(spec.bounds[0], spec.bounds[1], 161)
         ct = np.zeros((fine.size, 4))
-        ct[:, 0], ct[:, 1], ct[:, j] = v["r_winding"], gain, fine
+        ct[:, 0], ct[:, 1], ct[:, j] = v["r_series"], gain, fine
         mu = series_permeability(
             DynamicChain.predict("preisach", V, fr, Rs, law, ct), fr, R, gain, GEOMETRY
         ).real

@@ -24,6 +24,7 @@ __all__ = [
     "table_parameter",
     "parameter_base",
     "calibration_gain",
+    "current_scaled",
     "DIMENSIONLESS",
 ]
 
@@ -154,6 +155,23 @@ def calibration_gain(values) -> float:
     if "gain" in values:
         return float(values["gain"])
     return float(next((v for k, v in values.items() if parameter_base(k) == "gain"), 1.0))
+
+
+def current_scaled(specs: Sequence[ParamSpec], values: dict, scale: float) -> dict:
+    """``values`` of the law with parameters ``specs`` after a change of current scale: the law
+    whose flux at the current ``i`` is the original's at ``scale * i``.
+
+    Scaling the currents by ``1 / scale`` and the circuit's series resistance by ``scale``
+    leaves every measured point unchanged (:mod:`fitdf.data.cores`); a parameter carrying
+    ``(l_e / N)^q`` (:data:`QUANTITIES`) scales as ``scale^-q``: a current as ``1 / scale``,
+    an inductance as ``scale``, flux linkages not at all. Parameters without a quantity and
+    names not in ``specs`` are returned as they are.
+    """
+    out = dict(values)
+    for s in specs:
+        if s.name in out and s.quantity:
+            out[s.name] = out[s.name] * float(scale) ** -QUANTITIES[s.quantity][1]
+    return out
 
 
 class Parametrized:

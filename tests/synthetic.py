@@ -56,7 +56,7 @@ def synthetic_frame(
 
 
 #: The truth of :func:`mcmc_problem`: a proportional-width core and its winding chain.
-MCMC_TRUTH = {"k": 60.0, "c": 0.035, "m": 0.3, "r_winding": 100.0, "gain": 0.95}
+MCMC_TRUTH = {"k": 60.0, "c": 0.035, "m": 0.3, "r_series": 100.0, "gain": 0.95}
 
 
 def mcmc_problem() -> FitProblem:

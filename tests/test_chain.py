@@ -37,8 +37,8 @@ def random_theta(spec_owner, rng, size=None):
     return nat if size else nat[0]
 
 
-def relative_residual(op, V, f, Rs, r_winding):
-    R = Rs + r_winding
+def relative_residual(op, V, f, Rs, r_series):
+    R = Rs + r_series
     return np.abs(op.current * np.abs(R + 2j * np.pi * f * op.inductance) / V - 1)
 
 
@@ -322,4 +322,4 @@ def test_registry():
         assert ch.describe()["name"] == ch.name
         for p in ch.params:
             assert p.bounds[0] <= p.default <= p.bounds[1]
-    assert WindingChain.defaults() == {"r_winding": 70.0, "gain": 1.0}
+    assert WindingChain.defaults() == {"r_series": 70.0, "gain": 1.0}

@@ -159,12 +159,10 @@ def test_fit_prints_ranking_and_json():
     assert "(least squares: AICc within 2)" in words and "--wide prints every column" in words
     # the best model's parameters: unit (- for a pure number) and what each means
     params = parameter_lines(p.stdout)
-    assert set(params) >= {"k", "c", "r_winding", "gain"}
+    assert set(params) >= {"k", "c", "r_series", "gain"}
     units = {name: line.split()[2] for name, (line, _) in params.items()}
-    assert units["k"] == "H" and units["r_winding"] == "ohm" and units["gain"] == "-"
-    assert (
-        "calibration gain" in params["gain"][1] and "winding resistance" in params["r_winding"][1]
-    )
+    assert units["k"] == "H" and units["r_series"] == "ohm" and units["gain"] == "-"
+    assert "calibration gain" in params["gain"][1] and "series resistance" in params["r_series"][1]
     assert "(unit -: dimensionless)" in p.stdout
     wide = run(*fit_b3, "--quiet", "--wide")
     assert wide.returncode == 0, wide.stderr
@@ -266,7 +264,7 @@ def test_models_explains_one_law():
     assert [line for line in lines if line.split()[:2] == ["f_rev", "-"]]  # dimensionless
     for chain in ("direct:", "winding:", "voltage (default):"):
         assert any(line.startswith(chain) for line in lines), chain
-    assert [line for line in lines if line.split()[:2] == ["r_winding", "ohm"]]
+    assert [line for line in lines if line.split()[:2] == ["r_series", "ohm"]]
     listing = run_here("models")
     assert listing.returncode == 0 and "jiles_atherton:" in listing.stdout
     assert "fitdf models LAW" in listing.stdout
@@ -394,7 +392,7 @@ def _write_cores(folder, n=2):
     folder.mkdir(exist_ok=True)
     paths = []
     for i in range(n):
-        truth = {"k": 60.0 + 30.0 * i, "b": 2e-4, "c": 0.04, "r_winding": 100.0, "gain": 0.95}
+        truth = {"k": 60.0 + 30.0 * i, "b": 2e-4, "c": 0.04, "r_series": 100.0, "gain": 0.95}
         frame = synthetic_frame(
             "constant_width",
             truth,

@@ -14,7 +14,7 @@ from fitdf.inference.ranking import (
     ranking_table,
 )
 
-CHAIN = {"r_winding": 100.0, "gain": 0.95}
+CHAIN = {"r_series": 100.0, "gain": 0.95}
 RIVALS = ["constant_width", "proportional_width", "rayleigh"]
 TRUTH = {
     "constant_width": {"k": 80.0, "b": 2e-4, "c": 0.04},
@@ -99,6 +99,26 @@ def test_cross_impedance_prediction_table_on_real_data():
     assert (table["test_ohm"] == 600).all() and (table["n_test"] > 30).all()
     assert table["predict_rms_complex"].is_monotonic_increasing
     assert np.isfinite(table["predict_rms_complex"]).all()
+    # averaged over the series resistance's prior: median 53.8 + 25 ohm (the Permalloy
+    # winding's Appendix A estimate plus source and leads), nodes e^(-+sqrt(3) 0.45) about it
+    for _, row in table.iterrows():
+        expect = 78.8 * np.exp(0.45 * np.sqrt(3.0) * np.array([-1.0, 0.0, 1.0]))
+        np.testing.assert_allclose(row["r_series_nodes"], expect, rtol=1e-12)
+        np.testing.assert_allclose(row["r_series_weights"], [1 / 6, 2 / 3, 1 / 6], rtol=1e-15)
+        # trained at 0 ohm, each node's core is the median's rescaled exactly: the same fit, to
+        # the optimiser's precision (its polish from the rescaled optimum stops 4e-6 lower)
+        np.testing.assert_allclose(
+            row["train_rms_complex_nodes"], row["train_rms_complex"], rtol=1e-5
+        )
+        spread = row["predict_rms_complex_nodes"]
+        assert (
+            row["predict_rms_complex_min"]
+            == min(spread)
+            < max(spread)
+            == row["predict_rms_complex_max"]
+        )
+        # the RMS of the weighted mean prediction is at most the weighted mean of the RMS
+        assert row["predict_rms_complex"] <= np.dot(row["r_series_weights"], spread) + 1e-12
 
 
 @pytest.mark.slow  # 25 s; test_cross_impedance_prediction_table_on_real_data runs by default
@@ -117,7 +137,7 @@ def test_cross_impedance_on_synthetic_truth():
             policy="all",
             train_ohm=train,
             test_ohm=test,
-            r_winding=CHAIN["r_winding"],
+            r_series=CHAIN["r_series"],
         )
         best = table.iloc[0]
         # with the winding resistance known, the generating model predicts the other impedance

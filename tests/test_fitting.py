@@ -13,7 +13,7 @@ from fitdf.inference.api import DEFAULT_CHAIN, resolve_data
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.problem import FitProblem
 
-CHAIN = {"r_winding": 100.0, "gain": 0.95}
+CHAIN = {"r_series": 100.0, "gain": 0.95}
 
 #: True parameters per model (Permalloy-like magnitudes) and parameters held fixed in the
 #: recovery test because the synthetic amplitude range cannot identify them.

@@ -189,7 +189,7 @@ def test_a_fit_asked_again_is_read_not_computed_unless_its_rows_changed(tmp_path
     csv = tmp_path / "core.csv"
     frame = synthetic_frame(
         "constant_width",
-        {"k": 60.0, "b": 2e-4, "c": 0.04, "r_winding": 100.0, "gain": 0.95},
+        {"k": 60.0, "b": 2e-4, "c": 0.04, "r_series": 100.0, "gain": 0.95},
         chain="winding",
         frequencies=(3.0, 10.0),
         amplitudes=[0.2, 0.5, 1.0, 2.0, 3.0, 4.0],

@@ -159,7 +159,7 @@ def test_rayleigh_constants_against_closed_forms():
         "mu0": mu0,
         "gamma": gamma,
         "c_sat": np.inf,
-        "r_winding": 61.0,
+        "r_series": 61.0,
         "gain": 0.95,
     }  # chain keys ignored
     mc = material_constants(Rayleigh, theta, g, current_max=i_max)
@@ -186,7 +186,7 @@ def test_rayleigh_constants_against_closed_forms():
     assert mc.residual_induction_gauss == pytest.approx(
         float(g.induction_gauss(gamma * i_max**2 / 2)), rel=1e-12
     )
-    assert mc.winding_resistance_ohm == 61.0
+    assert mc.series_resistance_ohm == 61.0
     assert mc.winding_resistance_estimate_ohm == g.r_winding_estimate
 
 
@@ -252,7 +252,7 @@ def _values(**over):
         "peak_flux_density_Bp": 7000.0,
         "residual_induction_Br": 5000.0,
         "squareness_Br_over_Bp": 0.7,
-        "winding_resistance": 50.0,
+        "series_resistance": 50.0,
         "winding_resistance_estimate": 50.0,
     }
     v.update(over)
@@ -277,18 +277,20 @@ def test_appendix_a_check_edges_inclusive():
         ):
             row = {r["quantity"]: r for r in appendix_a_check(_values(**{q: value}), ranges)}[q]
             assert row["inside"] is expect, (q, value)
-    # resistance: estimate +- 30 %, edges included
-    for value, expect in ((35.0, True), (65.0, True), (34.99, False), (65.01, False)):
-        row = appendix_a_check(_values(winding_resistance=value), ranges)[-1]
-        assert row["quantity"] == "winding_resistance" and row["inside"] is expect
+    # series resistance: the central 95 % of its log-normal prior, median the winding's
+    # estimate + 25 ohm of source and leads, sigma 0.45: 75 / e^0.9 .. 75 e^0.9; edges included
+    low, high = 75.0 / math.exp(0.9), 75.0 * math.exp(0.9)
+    for value, expect in ((low, True), (high, True), (low * 0.999, False), (high * 1.001, False)):
+        row = appendix_a_check(_values(series_resistance=value), ranges)[-1]
+        assert row["quantity"] == "series_resistance" and row["inside"] is expect
         assert (row["low"], row["high"], row["unit"]) == (
-            pytest.approx(35.0),
-            pytest.approx(65.0),
+            pytest.approx(low, rel=1e-12),
+            pytest.approx(high, rel=1e-12),
             "ohm",
         )
     # no fitted resistance: no resistance row
-    rows = appendix_a_check(_values(winding_resistance=None), ranges)
-    assert "winding_resistance" not in [r["quantity"] for r in rows]
+    rows = appendix_a_check(_values(series_resistance=None), ranges)
+    assert "series_resistance" not in [r["quantity"] for r in rows]
 
 
 def test_appendix_a_check_open_range_and_json():
@@ -305,7 +307,7 @@ def test_appendix_a_check_open_range_and_json():
         {"mu0": 15.0, "gamma": 2e4, "c_sat": 0.3},
         g,
         current_max=2e-3,
-        winding_resistance=60.0,
+        series_resistance=60.0,
     )
     rows = appendix_a_check(mc, appendix_a_ranges("permalloy"))
     json.dumps(rows)
@@ -316,7 +318,7 @@ def test_appendix_a_check_open_range_and_json():
     by_q = {r["quantity"]: r for r in rows}
     assert by_q["initial_permeability"]["fitted"] == pytest.approx(mc.initial_permeability)
     assert by_q["coercive_force_Hc"]["unit"] == "oersted"
-    assert by_q["winding_resistance"]["inside"]  # 60 within 53.8 +- 30 %
+    assert by_q["series_resistance"]["inside"]  # 60 within 53.8 +- 30 %
 
 
 # --- the iron fraction (stacking factor) -----------------------------------------------------

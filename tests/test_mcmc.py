@@ -192,7 +192,7 @@ def test_sampling_in_logit_coordinates_keeps_the_posterior(problem, lsq, monkeyp
     open_ = {
         w.split("do not determine ")[1].split(":")[0] for w in r.warnings if "do not determine" in w
     }
-    assert open_ == set(problem.names[1:]) == {"c", "m", "r_winding", "gain"}
+    assert open_ == set(problem.names[1:]) == {"c", "m", "r_series", "gain"}
 
 
 def test_posterior_bound_warning_counts_the_draws_at_a_bound(problem):

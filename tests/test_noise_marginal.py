@@ -195,8 +195,8 @@ def test_the_predict_nothing_mode_is_gone(monkeypatch):
 
     rows = resolve_data("B.3", "default", None)
     problem = FitProblem(rows, "constant_width", "voltage", geometry=resolve_geometry("auto", rows))
-    lsq_point = {"k": 49.264, "b": 1.0548e-4, "c": 0.041379, "r_winding": 53.296, "gain": 0.95310}
-    nothing = {"k": 0.34898, "b": 0.12072, "c": 0.0090893, "r_winding": 54.825, "gain": 1.1913}
+    lsq_point = {"k": 49.264, "b": 1.0548e-4, "c": 0.041379, "r_series": 53.296, "gain": 0.95310}
+    nothing = {"k": 0.34898, "b": 0.12072, "c": 0.0090893, "r_series": 54.825, "gain": 1.1913}
     X = np.array([problem.to_internal(v) for v in (lsq_point, nothing)])
     assert np.all(problem.predict(X[1]) == 0) and np.abs(problem.predict(X[0])).min() > 0.1
     fitted, degenerate = LogPosterior(problem, marginal_noise=True)(X)

@@ -154,7 +154,7 @@ def test_constants_panel_one_row_per_core_and_quantity(record):
     assert len(panels) == 3
     assert [a.get_xscale() for a in panels] == ["log", "log", "linear"]
     # (*): the constants a single source impedance leaves to the winding resistance (the note)
-    assert panels[0].get_title(loc="left") == "initial permeability (gauss/oersted) (*)"
+    assert panels[0].get_title(loc="left") == "initial permeability (gauss/oersted) (*, **)"
     assert panels[2].get_title(loc="left") == "squareness $B_r/B_p$"
     # the zero initial permeability (joint fit) is drawn at the left edge, its value written
     assert any(t.get_text() == "0" for t in panels[0].texts)
@@ -186,7 +186,10 @@ def test_empty_record_is_refused():
 def test_caption_is_one_sentence_about_the_colours():
     assert CAPTION.count(". ") == 0 and CAPTION.endswith(".")
     assert "colour" in CAPTION and "Appendix A" in CAPTION
-    assert "outside it (the fitted constant lies outside the catalogue range" in CAPTION
+    assert (
+        "outside it (the fitted constant, at the nominal stacking factor 0.85, lies outside"
+        in CAPTION
+    )
 
 
 def test_the_figure_says_what_outside_means_and_what_the_data_leave_open(record):
@@ -202,12 +205,13 @@ def test_the_figure_says_what_outside_means_and_what_the_data_leave_open(record)
     note = " ".join(legend.get_title().get_text().split())
     assert note == " ".join(NOTE.split())
     assert note.startswith(
-        "Outside: the fitted constant lies outside the Appendix A catalogue range of the core's "
-        "material"
+        "Outside: the fitted constant, at the nominal stacking factor 0.85, lies outside the "
+        "Appendix A catalogue range of the core's material"
     )
-    assert "trade against the winding resistance" in note and "lower bound" in note
+    assert "trade against the series resistance" in note and "iron fraction" in note
     labels = [t.get_text() for t in legend.get_texts()]
     assert {"inside the range", "outside it", "not determined", "Appendix A range"} <= set(labels)
+    assert "stacking factor 0.50-0.90" in labels
     # B.1's undetermined initial permeability (2000, below the range): an open grey marker
     panel = fig.axes[2]
     marks = [ln for ln in panel.get_lines() if ln.get_marker() in ("o", "s", "D")]
@@ -225,3 +229,24 @@ def test_laws_are_named_beside_their_code_names(record):
     i = grid.laws.index("rayleigh")
     assert ticks[i] == "Rayleigh parabolic loop\nwith Frohlich-Kennelly\nsaturation\n[rayleigh]"
     assert ticks[grid.laws.index("cubic_hc")] == "cubic_hc"  # a law the record does not describe
+
+
+def test_an_induction_is_drawn_over_the_stacking_factors_range(record):
+    """A constant that carries the iron fraction is a marker at the nominal stacking factor with a
+    whisker over its range (``fitted_low``..``fitted_high`` of the check); the squareness has none."""
+    fit = record["blocks"]["B.1"]["fits_lsq"]["rayleigh"]
+    for c in fit["appendix_a_check"]:
+        iron = c["quantity"] in ("peak_flux_density_Bp", "initial_permeability")
+        c["fitted_low"], c["fitted_high"] = (
+            (c["fitted"] * 0.85 / 0.9, c["fitted"] * 0.85 / 0.5) if iron else (c["fitted"],) * 2
+        )
+    fig = plot_summary(record)
+    whiskers = [
+        ln for ax in fig.axes for ln in ax.get_lines() if ln.get_marker() in ("None", "", None)
+    ]
+    spans = sorted(
+        tuple(np.round(ln.get_xdata(), 6)) for ln in whiskers if len(ln.get_xdata()) == 2
+    )
+    mu = next(c for c in fit["appendix_a_check"] if c["quantity"] == "initial_permeability")
+    assert tuple(np.round([mu["fitted_low"], mu["fitted_high"]], 6)) in spans
+    assert len(spans) == 1  # neither the coercive force nor the squareness has one

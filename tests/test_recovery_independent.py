@@ -24,7 +24,7 @@ from fitdf.models import get_model
 
 AMPLITUDES = np.array([0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0])
 FREQUENCIES = (3.0, 6.0, 10.0)
-CHAIN = {"r_winding": 60.0, "gain": 0.95}
+CHAIN = {"r_series": 60.0, "gain": 0.95}
 TRUTH = {
     "constant_width": {"k": 80.0, "b": 2e-4, "c": 0.04},
     "rayleigh": {"mu0": 20.0, "gamma": 8e4, "c_sat": 0.038},
@@ -66,7 +66,7 @@ def referee_frame(model, theta, seed, source_impedances=(0.0, 600.0)):
     for rs in source_impedances:
         for f in FREQUENCIES:
             for v in AMPLITUDES:
-                d = referee_winding_df(model, theta, v, f, rs + CHAIN["r_winding"], CHAIN["gain"])
+                d = referee_winding_df(model, theta, v, f, rs + CHAIN["r_series"], CHAIN["gain"])
                 mag = abs(d) + 0.005 * rng.standard_normal()
                 phase = np.angle(d, deg=True) + 0.5 * rng.standard_normal()
                 rows.append(

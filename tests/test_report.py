@@ -640,7 +640,7 @@ def test_findings_open_with_a_conclusion_from_the_numbers():
     checks = [c for rec in blocks for c in rec["fits_lsq"][rec["order_lsq"][0]]["appendix_a_check"]]
     outside = sum(not c["inside"] for c in checks)
     assert f"{outside} of the {len(checks)} material constants of the best fits lie outside" in text
-    assert "trade against the winding resistance" in text and "lower bound" in text
+    assert "trade against the series resistance" in text and "iron fraction" in text
     # the statements below do not repeat the winners' list, and name laws by title and code
     assert not any(s.startswith("Best model per block") for s in statements)
     assert statements[0].startswith(f"**{res['blocks']['B.1']['title']}**: {names['preisach']}")

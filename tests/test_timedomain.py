@@ -156,7 +156,7 @@ def test_direct_operator_is_the_static_loop():
 
 
 def test_voltage_drive_differs_from_the_sinusoidal_current_chain_in_saturation():
-    """At 0 ohm (R = r_winding) the current is far from sinusoidal once the core saturates:
+    """At 0 ohm (R = r_series) the current is far from sinusoidal once the core saturates:
     the real (voltage-driven) DF leads much less than the chain's DF -- a limit of the chain."""
     from fitdf.chains import get_chain
 

@@ -8,7 +8,7 @@ analyser read:
 
 * :class:`~fitdf.chains.voltage.VoltageChain` (``voltage``, the default) -- the circuit of
   Fig 5.10 solved exactly: the periodic steady state of ``V sin(wt) = R i + d lambda/dt``
-  with ``R = R_source + r_winding``, whatever current waveform the loop makes; the output
+  with ``R = R_source + r_series``, whatever current waveform the loop makes; the output
   ``gain d lambda/dt`` leads the input where the current lags it (Fig 5.10);
 * :class:`~fitdf.chains.winding.WindingChain` (``winding``) -- its sinusoidal-current
   approximation: ``I |R + Z(I, f)| = V`` with ``Z = j 2 pi f N(I, f)``, and

@@ -106,7 +106,7 @@ __all__ = ["DynamicChain"]
 class DynamicChain(VoltageChain):
     """The ``voltage`` chain with the classical and excess eddy-current fields (module docstring).
 
-    Parameters are the ``voltage`` chain's (``r_winding``, ``gain``) and ``c_cl`` (S),
+    Parameters are the ``voltage`` chain's (``r_series``, ``gain``) and ``c_cl`` (S),
     ``c_ex`` (A V^-1/2) of the rate-dependent current ``g(e) = c_cl e + c_ex sign(e)
     |e|^(1/2)``. ``current`` in :meth:`operating_point` is the branch amplitude ``a`` (the
     peak of the law's input ``i_h``, the amplitude the law's ``N(a, f)`` is taken at);

@@ -4,7 +4,7 @@ Provides :class:`VoltageChain` (registered as ``voltage``, the default chain of 
 its numerical settings :class:`VoltageSettings`, and :func:`steady_state_waveform`, one
 point's current, flux linkage and output over a whole period (:class:`SteadyState`).
 
-A sinusoidal source drives the core's winding through ``R = R_source + r_winding``
+A sinusoidal source drives the core's winding through ``R = R_source + r_series``
 (thesis section V.5, Fig 5.10), and the winding's flux linkage ``lambda`` follows the
 law's hysteresis loop::
 
@@ -449,7 +449,7 @@ class VoltageChain(MeasurementChain):
     """Sinusoidal voltage source, series resistance and the core's winding, solved exactly.
 
     The periodic steady state of ``V sin(wt) = R i + d lambda/dt`` with the law's loop
-    (``R = R_source + r_winding``), output ``gain d lambda/dt``; the DF is its first
+    (``R = R_source + r_series``), output ``gain d lambda/dt``; the DF is its first
     harmonic over ``V`` (module docstring: method, accuracy). Parameters are those of the
     ``winding`` chain. ``current`` in :meth:`operating_point` is the *peak* current
     ``I_p`` of the steady state (the loop's amplitude) and ``inductance`` the law's
@@ -478,7 +478,7 @@ class VoltageChain(MeasurementChain):
             raise ModelError("frequency must be > 0 Hz")
         mkw = split_theta(model.params, model_theta)
         ckw = split_theta(cls.params, chain_theta)
-        R = np.maximum(Rs + ckw["r_winding"], R_MIN)
+        R = np.maximum(Rs + ckw["r_series"], R_MIN)
         shape = np.broadcast_shapes(
             V.shape, f.shape, R.shape, ckw["gain"].shape, *(np.shape(v) for v in mkw.values())
         )

@@ -21,7 +21,7 @@ class WindingChain(MeasurementChain):
     """Sinusoidal source, series resistance and the core's winding (Fig 5.10, section V.5).
 
     The winding current amplitude ``I`` solves ``I |R + Z(I, f)| = V`` with
-    ``R = R_source + r_winding`` and ``Z = j 2 pi f N(I, f)`` (:func:`solve_current`); the
+    ``R = R_source + r_series`` and ``Z = j 2 pi f N(I, f)`` (:func:`solve_current`); the
     predicted reading is ``DF = gain Z / (R + Z)``. Where the loop has no height
     (``N = 0``, amplitudes inside a backlash-like dead zone) ``I = V / R`` and ``DF = 0``.
     As ``R -> 0``, ``DF -> gain`` wherever the core can carry the flux ``V / (2 pi f)``,
@@ -39,11 +39,12 @@ class WindingChain(MeasurementChain):
     title = "Winding in series with the source resistance (Fig 5.10)"
     params = (
         ParamSpec(
-            "r_winding",
+            "r_series",
             70.0,
             (1.0, 5000.0),
             unit="ohm",
-            description="winding resistance (plus any fixed series resistance)",
+            description="series resistance besides the source impedance: winding, source "
+            "output and leads",
             equation="sec V.5, Fig 5.10",
             log=True,
         ),
@@ -72,7 +73,7 @@ class WindingChain(MeasurementChain):
         V, f, Rs = as_points(amplitude, frequency, source_impedance)
         mkw = split_theta(model.params, model_theta)
         ckw = split_theta(cls.params, chain_theta)
-        R = np.maximum(Rs + ckw["r_winding"], R_MIN)
+        R = np.maximum(Rs + ckw["r_series"], R_MIN)
         shape = np.broadcast_shapes(V.shape, f.shape, R.shape, *(np.shape(v) for v in mkw.values()))
         # Flat per-point copies let the solver evaluate the model on unconverged points only.
         flat_f = np.broadcast_to(f, shape).ravel()

@@ -55,7 +55,7 @@ def fit(
         MCMC runs a pilot, then at least ``n_steps`` and up to ``max_steps`` until the
         chain has converged (:func:`fitdf.inference.mcmc.is_converged`).
     geometry : "auto", CoreGeometry or None
-        The core's turns and dimensions: material bounds, the ``r_winding`` prior and the
+        The core's turns and dimensions: material bounds, the ``r_series`` prior and the
         material constants of the result (:class:`~fitdf.inference.problem.FitProblem`).
         "auto" takes the Appendix A geometry when the rows name a thesis core; None fits
         in winding units with the laws' declared bounds.

@@ -17,9 +17,9 @@ units in which manufacturers, and Appendix A of the thesis, characterise a core
   (``a = current_max``), NaN for a loop without height;
 * **peak flux density** ``B_p = ascending_branch(a, a)``, **residual induction**
   ``B_r = -ascending_branch(0, a)`` of the largest loop, and the squareness ``B_r / B_p``;
-* the fitted **winding resistance** against the Appendix A estimate
-  (:func:`fitdf.data.cores.winding_resistance_estimate`, accepted within
-  :data:`RESISTANCE_TOLERANCE`).
+* the fitted **series resistance** (winding, source output and leads) against the 95 %
+  interval of its prior about the winding's Appendix A estimate
+  (:func:`fitdf.inference.problem.series_resistance_prior`).
 
 Notes
 -----
@@ -46,6 +46,7 @@ import numpy as np
 from fitdf._json import clean
 from fitdf.data.cores import CoreGeometry, appendix_a_ranges
 from fitdf.errors import ModelError, OptionError
+from fitdf.inference.problem import series_resistance_prior
 
 __all__ = [
     "MaterialConstants",
@@ -61,7 +62,7 @@ __all__ = [
     "flux_linkage_from_induction",
     "induction_from_flux_linkage",
     "SMALL_SIGNAL_RATIO",
-    "RESISTANCE_TOLERANCE",
+    "RESISTANCE_PRIOR_SIGMAS",
     "CHECK_QUANTITIES",
     "DETERMINED_BY",
     "implied_stacking_factor",
@@ -72,9 +73,9 @@ SMALL_SIGNAL_RATIO = 1e-6
 #: Relative change of ``Re N`` over the decade above the small-signal amplitude beyond which
 #: the initial permeability is flagged as not converged.
 _CONVERGENCE_TOL = 1e-2
-#: Half-width of the band accepted around the Appendix A winding-resistance estimate, relative:
-#: the estimate is good to "perhaps 30 %" (:func:`fitdf.data.cores.winding_resistance_estimate`).
-RESISTANCE_TOLERANCE = 0.3
+#: The band accepted for the series resistance: its prior's median times or over
+#: ``exp(RESISTANCE_PRIOR_SIGMAS sigma)`` (2: about the central 95 %).
+RESISTANCE_PRIOR_SIGMAS = 2.0
 #: Rows of :func:`appendix_a_check`, named as in ``datasets/appendix_a.csv`` (plus the resistance).
 CHECK_QUANTITIES = (
     "initial_permeability",
@@ -83,7 +84,7 @@ CHECK_QUANTITIES = (
     "peak_flux_density_Bp",
     "residual_induction_Br",
     "squareness_Br_over_Bp",
-    "winding_resistance",
+    "series_resistance",
 )
 
 #: What a fit's data determine of each constant, as the constant depends on the two things
@@ -98,7 +99,7 @@ _DEPENDS = {
     "peak_flux_density_Bp": (True, False),
     "residual_induction_Br": (True, False),
     "squareness_Br_over_Bp": (False, False),
-    "winding_resistance": (False, True),
+    "series_resistance": (False, True),
 }
 #: The sentence for each combination (iron fraction, current scale left open).
 DETERMINED_BY = {
@@ -128,7 +129,7 @@ def _float(value):
 
 
 def _model_kwargs(model, theta):
-    """The model's own parameters out of ``theta`` (chain parameters such as ``r_winding`` dropped)."""
+    """The model's own parameters out of ``theta`` (chain parameters such as ``r_series`` dropped)."""
     names = [p.name for p in getattr(model, "params", ())]
     if not names:
         raise ModelError(f"{model!r} declares no parameters (expected a HysteresisModel class)")
@@ -263,7 +264,7 @@ class MaterialConstants:
         ``B_r``: the descending branch at zero current (eq 3.9).
     squareness : float
         ``B_r / B_p``.
-    winding_resistance_ohm, winding_resistance_estimate_ohm : float
+    series_resistance_ohm, winding_resistance_estimate_ohm : float
         The fitted resistance and the Appendix A estimate (NaN if not given).
     geometry : CoreGeometry
         The geometry used for the conversions.
@@ -290,7 +291,7 @@ class MaterialConstants:
     residual_induction_t: float
     residual_induction_gauss: float
     squareness: float
-    winding_resistance_ohm: float
+    series_resistance_ohm: float
     winding_resistance_estimate_ohm: float
     geometry: CoreGeometry = field(repr=False)
 
@@ -298,7 +299,7 @@ class MaterialConstants:
         """The constants under their ``datasets/appendix_a.csv`` names, in Appendix A units.
 
         Permeabilities in gauss/oersted, ``coercive_force_Hc`` in oersted, inductions in
-        gauss, the squareness as a ratio, ``winding_resistance`` and
+        gauss, the squareness as a ratio, ``series_resistance`` and
         ``winding_resistance_estimate`` in ohm.
         """
         return {
@@ -308,7 +309,7 @@ class MaterialConstants:
             "peak_flux_density_Bp": self.peak_flux_density_gauss,
             "residual_induction_Br": self.residual_induction_gauss,
             "squareness_Br_over_Bp": self.squareness,
-            "winding_resistance": self.winding_resistance_ohm,
+            "series_resistance": self.series_resistance_ohm,
             "winding_resistance_estimate": self.winding_resistance_estimate_ohm,
         }
 
@@ -326,7 +327,7 @@ def material_constants(
     *,
     current_max,
     frequency=None,
-    winding_resistance=None,
+    series_resistance=None,
     winding_resistance_estimate=None,
 ) -> MaterialConstants:
     """Material constants of a fitted law on a given core (see the module docstring).
@@ -338,7 +339,7 @@ def material_constants(
         ``params``; optional ``name`` and ``frequency_dependent``).
     theta : mapping
         Parameter values by name, in winding units; keys that are not parameters of the
-        law (the chain's ``r_winding``, ``gain``) are ignored.
+        law (the chain's ``r_series``, ``gain``) are ignored.
     geometry : CoreGeometry
         Turns and dimensions (:func:`fitdf.data.cores.core_geometry` for a thesis core,
         :meth:`CoreGeometry.from_dimensions` for another).
@@ -349,9 +350,9 @@ def material_constants(
         Frequency (Hz) at which the law is evaluated; required for a frequency-dependent
         law (use the lowest data frequency: an assumption, the catalogue's test frequency
         is not printed), 0 otherwise.
-    winding_resistance : float, optional
-        Fitted winding resistance (ohm), e.g. the winding chain's ``r_winding``; if None,
-        ``theta["r_winding"]`` when present.
+    series_resistance : float, optional
+        Fitted winding resistance (ohm), e.g. the winding chain's ``r_series``; if None,
+        ``theta["r_series"]`` when present.
     winding_resistance_estimate : float, optional
         Independent estimate (ohm); defaults to ``geometry.r_winding_estimate``.
 
@@ -383,8 +384,8 @@ def material_constants(
         float(marks["coercive"][0]),
     )
 
-    if winding_resistance is None:
-        winding_resistance = theta.get("r_winding") if hasattr(theta, "get") else None
+    if series_resistance is None:
+        series_resistance = theta.get("r_series") if hasattr(theta, "get") else None
     if winding_resistance_estimate is None:
         winding_resistance_estimate = geometry.r_winding_estimate
     nan = float("nan")
@@ -410,7 +411,7 @@ def material_constants(
         residual_induction_t=float(geometry.induction(residual)),
         residual_induction_gauss=float(geometry.induction_gauss(residual)),
         squareness=residual / tip if tip != 0 else nan,
-        winding_resistance_ohm=nan if winding_resistance is None else float(winding_resistance),
+        series_resistance_ohm=nan if series_resistance is None else float(series_resistance),
         winding_resistance_estimate_ohm=nan
         if winding_resistance_estimate is None
         else float(winding_resistance_estimate),
@@ -445,9 +446,7 @@ def implied_stacking_factor(constants, ranges) -> dict | None:
     }
 
 
-def appendix_a_check(
-    constants, ranges, *, resistance_tolerance=RESISTANCE_TOLERANCE, joint=False
-) -> list[dict]:
+def appendix_a_check(constants, ranges, *, joint=False) -> list[dict]:
     """Compare fitted material constants with the Appendix A ranges.
 
     Parameters
@@ -457,11 +456,8 @@ def appendix_a_check(
         units (as :meth:`MaterialConstants.appendix_a_values` returns).
     ranges : mapping
         ``quantity -> (low, high, unit)`` as :func:`fitdf.data.cores.appendix_a_ranges`
-        returns (``high`` None: no upper limit). A ``"winding_resistance"`` entry, if
+        returns (``high`` None: no upper limit). A ``"series_resistance"`` entry, if
         present, overrides the band built from the estimate.
-    resistance_tolerance : float
-        Relative half-width of the accepted band around the winding-resistance estimate:
-        ``estimate * (1 -+ 0.3)`` by default, the estimate's own stated accuracy.
     joint : bool
         The fit's data span two source impedances, which fixes the current scale.
 
@@ -477,7 +473,7 @@ def appendix_a_check(
         range (equal to ``fitted`` for the constants that do not depend on it, and for a
         mapping without a geometry), ``inside_range`` whether that span meets the Appendix A
         range, and ``determined`` says what fixes the value (:data:`DETERMINED_BY`). The
-        ``winding_resistance`` row appears only when both a fitted value and an estimate (or
+        ``series_resistance`` row appears only when both a fitted value and an estimate (or
         range) are known.
     """
     values = (
@@ -488,22 +484,19 @@ def appendix_a_check(
     geometry = getattr(constants, "geometry", None)
     spread = (1.0, 1.0) if geometry is None else geometry.iron_fraction_spread
     ranges = dict(ranges)
-    if "winding_resistance" not in ranges:
+    if "series_resistance" not in ranges:
         est = values.get("winding_resistance_estimate")
         if est is not None and math.isfinite(float(est)):
-            est = float(est)
-            ranges["winding_resistance"] = (
-                est * (1.0 - resistance_tolerance),
-                est * (1.0 + resistance_tolerance),
-                "ohm",
-            )
+            median, sigma = series_resistance_prior(float(est))
+            width = math.exp(RESISTANCE_PRIOR_SIGMAS * sigma)
+            ranges["series_resistance"] = (median / width, median * width, "ohm")
     rows = []
     for quantity in CHECK_QUANTITIES:
         if quantity not in ranges:
             continue
         fitted = values.get(quantity)
         fitted = float("nan") if fitted is None else float(fitted)
-        if quantity == "winding_resistance" and not math.isfinite(fitted):
+        if quantity == "series_resistance" and not math.isfinite(fitted):
             continue
         low, high, unit = ranges[quantity]
         low = float(low)
@@ -584,7 +577,7 @@ def material_record(result) -> dict | None:
         geometry,
         current_max=float(np.nanmax(currents)),
         frequency=float(np.min(data.frequency)),
-        winding_resistance=result.values.get("r_winding"),
+        series_resistance=result.values.get("r_series"),
         winding_resistance_estimate=geometry.r_winding_estimate,
     )
     try:

@@ -114,7 +114,7 @@ def small_signal_scan(result, biases=None) -> pd.DataFrame:
     current = problem.core_currents(result.internal)[rows]
     fitted = problem.predict(result.internal)[rows]
     f = np.asarray(data.frequency, float)[rows]
-    R = np.asarray(data.source_impedance, float)[rows] + values.get("r_winding", 0.0)
+    R = np.asarray(data.source_impedance, float)[rows] + values.get("r_series", 0.0)
     table = np.asarray(data.group)[rows]
     gain = np.array([gains.get(f"gain[{t}]", values.get("gain", 1.0)) for t in table])
     measured = np.asarray(data.measured)[rows]
@@ -198,7 +198,7 @@ def series_permeability(df, frequency, resistance, gain, geometry):
     df : array_like of complex
         Readings (measured or predicted), ``angle > 0`` a lead.
     frequency, resistance, gain : array_like
-        Hz; total series resistance ``R_source + r_winding`` (ohm); the reading's gain.
+        Hz; total series resistance ``R_source + r_series`` (ohm); the reading's gain.
     geometry : CoreGeometry
 
     Returns
@@ -218,7 +218,7 @@ def small_signal_permeability(result, geometry=None) -> pd.DataFrame:
 
     Both readings, the measured one and the fit's prediction (its chain: for the
     ``dynamic`` chain the rate-dependent losses included), are inverted through the circuit
-    of Fig 5.10 with the fit's own ``R = R_source + r_winding`` and gain
+    of Fig 5.10 with the fit's own ``R = R_source + r_series`` and gain
     (:func:`series_permeability`), so the two columns differ only by what the fit does not
     reproduce. ``geometry``: the fit's (default) or another :class:`CoreGeometry`.
     """
@@ -233,7 +233,7 @@ def small_signal_permeability(result, geometry=None) -> pd.DataFrame:
     gain = np.array([values.get(f"gain[{t}]", calibration_gain(values)) for t in table])
     f = np.asarray(data.frequency, float)[rows]
     Rs = np.asarray(data.source_impedance, float)[rows]
-    R = Rs + values.get("r_winding", 0.0)
+    R = Rs + values.get("r_series", 0.0)
     measured = np.asarray(data.measured)[rows]
     fitted = problem.predict(result.internal)[rows]
     mu_m = series_permeability(measured, f, R, gain, geometry)

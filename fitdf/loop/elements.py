@@ -15,7 +15,7 @@ current -- the slowly-varying-amplitude (Krylov-Bogoliubov) assumption of thesis
 
     v = R i + d(lambda)/dt,    lambda = loop(i),    output = gain d(lambda)/dt,
 
-``R = R_source + r_winding``. Each step is implicit (backward Euler on ``lambda``, with
+``R = R_source + r_series``. Each step is implicit (backward Euler on ``lambda``, with
 half the previous current increment added to ``v`` so that ``R i`` is centred too):
 ``R i + (loop(i) - lambda_prev)/dt = v`` is solved for ``i`` on the current branch,
 whose left side increases strictly with ``i`` (``R > 0``, branch non-decreasing), so
@@ -113,7 +113,7 @@ class CoreElement:
         differ only in the DF :meth:`describing_function` reports (exact or
         sinusoidal-current).
     resistance : float
-        Total series resistance ``R_source + r_winding`` (ohm; winding chain).
+        Total series resistance ``R_source + r_series`` (ohm; winding chain).
     gain : float
         Output calibration gain (winding chain).
     input_scale : float
@@ -154,7 +154,7 @@ class CoreElement:
                 model,
                 theta,
                 chain,
-                resistance=float(source_impedance) + float(values["r_winding"]),
+                resistance=float(source_impedance) + float(values["r_series"]),
                 gain=gain,
                 source_impedance=float(source_impedance),
                 chain_theta=ctheta,

@@ -50,26 +50,28 @@ CAPTION = (
     "best law of the block); right: the material constants of each block's best fit against "
     "the Appendix A range of its core's material (green bar; circle: a 0 ohm table, square: a "
     "600 ohm table, diamond: both jointly), a filled marker inside the range, an open red one "
-    "outside it (the fitted constant lies outside the catalogue range of the material; for "
-    "the winding resistance, outside the band about its Appendix A estimate), an open grey "
-    "one where the fit does not determine the constant."
+    "outside it (the fitted constant, at the nominal stacking factor 0.85, lies outside the "
+    "catalogue range of the material; for the series resistance, outside the central 95 % of "
+    "its prior), an open grey one where the fit does not determine the constant; a whisker "
+    "spans an induction or permeability over the stacking factors of tape-wound cores "
+    "(0.50-0.90), which the data do not determine."
 )
 
 #: What the constants panel's marks mean, and what the data leave open (drawn under it; the
 #: second sentence only where a marker is grey).
 NOTE = (
-    "Outside: the fitted constant lies outside the Appendix A catalogue range of the core's "
-    "material (winding resistance: outside the band about its Appendix A estimate). "
-    "Grey: not determined (no small-signal limit; maximum at the edge of the data). "
-    "At one source impedance (circles, squares) the permeabilities and $H_c$ trade against "
-    "the winding resistance (*); $B_p$ and $B_r$ are those of the largest loop the tables reach "
-    "(**), so a $B_p$ below the range is a lower bound."
+    "Outside: the fitted constant, at the nominal stacking factor 0.85, lies outside the "
+    "Appendix A catalogue range of the core's material (series resistance: outside the "
+    "central 95 % of its prior). Grey: not determined (no small-signal limit; maximum at the "
+    "edge of the data). At one source impedance (circles, squares) the permeabilities and "
+    "$H_c$ trade against the series resistance (*); inductions and permeabilities carry the "
+    "unprinted iron fraction of the section (**): the whiskers span stacking factors 0.50-0.90."
 )
 _GREY = "Grey: not determined (no small-signal limit; maximum at the edge of the data). "
 #: Short notes beside the panels' titles, by quantity (see :data:`NOTE`).
 _PANEL_NOTES = {
-    "initial_permeability": "(*)",
-    "maximum_permeability": "(*)",
+    "initial_permeability": "(*, **)",
+    "maximum_permeability": "(*, **)",
     "coercive_force_Hc": "(*)",
     "peak_flux_density_Bp": "(**)",
     "residual_induction_Br": "(**)",
@@ -87,7 +89,7 @@ _QUANTITY_LABELS = {
     "peak_flux_density_Bp": "peak flux density $B_p$",
     "residual_induction_Br": "residual induction $B_r$",
     "squareness_Br_over_Bp": "squareness $B_r/B_p$",
-    "winding_resistance": "winding resistance",
+    "series_resistance": "series resistance",
 }
 
 
@@ -178,7 +180,9 @@ def constant_rows(results: dict) -> list[dict]:
     list of dict
         ``{core, quantity, unit, low, high, fits}`` in the order cores and quantities
         first appear; ``fits`` is a list of ``{block, kind, model, fitted, inside,
-        determined}`` (one per block of the core whose best least-squares fit has an
+        determined, fitted_low, fitted_high}`` (``fitted_low``/``fitted_high``: the value
+        over the stacking factor's range, equal to ``fitted`` where it does not depend on
+        it; one per block of the core whose best least-squares fit has an
         ``appendix_a_check``; ``determined`` False for an initial permeability whose
         small-signal limit the fit does not reach, ``material.initial_converged``, and a
         maximum permeability at the edge of the data, ``material.maximum_at_edge``).
@@ -213,6 +217,8 @@ def constant_rows(results: dict) -> list[dict]:
                     "kind": _block_kind(rec),
                     "model": order[0],
                     "fitted": _float(c["fitted"]),
+                    "fitted_low": _float(c.get("fitted_low", c["fitted"])),
+                    "fitted_high": _float(c.get("fitted_high", c["fitted"])),
                     "inside": bool(c["inside"]),
                     "determined": not open_.get(c["quantity"], False),
                 }
@@ -334,7 +340,13 @@ def _draw_quantity(ax, rows: list[dict], cores: list[str], show_xlabel_unit=True
     """One quantity: a row per core, the Appendix A range as a bar, each block's best fit a marker."""
     q, unit = rows[0]["quantity"], rows[0]["unit"]
     finite = [r["low"] for r in rows] + [r["high"] for r in rows]
-    finite += [f["fitted"] for r in rows for f in r["fits"]]
+    finite += [
+        f[k]
+        for r in rows
+        for f in r["fits"]
+        for k in ("fitted", "fitted_low", "fitted_high")
+        if k in f
+    ]
     log = _span_is_log(finite)
     vals = np.asarray([x for x in finite if np.isfinite(x) and (x > 0 or not log)], float)
     if log:
@@ -362,6 +374,10 @@ def _draw_quantity(ax, rows: list[dict], cores: list[str], show_xlabel_unit=True
                 x = lo * 1.4
                 at_edge.append(f"{f['fitted']:.3g}")
             edge = _OPEN if not f.get("determined", True) else _INSIDE if f["inside"] else _OUTSIDE
+            f_lo, f_hi = f.get("fitted_low", f["fitted"]), f.get("fitted_high", f["fitted"])
+            if np.isfinite(f_lo) and np.isfinite(f_hi) and f_hi > f_lo and not (log and f_lo <= 0):
+                # the value over the stacking factor's range (the data do not determine it)
+                ax.plot([f_lo, f_hi], [y + dy] * 2, color=edge, lw=1.0, zorder=2, clip_on=False)
             ax.plot(
                 x,
                 y + dy,
@@ -406,6 +422,7 @@ def _constants_legend(fig, kinds, undetermined: bool) -> None:
         for text, face, edge in marks
     ]
     handles.append(Patch(color=_RANGE, label="Appendix A range"))
+    handles.append(Line2D([], [], color="0.3", lw=1.0, label="stacking factor 0.50-0.90"))
     legend = fig.legend(
         handles=handles,
         loc="outside lower center",

@@ -250,8 +250,8 @@ def _chain_blocks(rec, names):
                 "hc": f"{fmt(ce.get('coercive_force_oe'), 3)} / {fmt(ca.get('coercive_force_oe'), 3)}",
                 "bp": f"{fmt(ce.get('peak_flux_density_gauss'), 3)} / "
                 f"{fmt(ca.get('peak_flux_density_gauss'), 3)}",
-                "rw": f"{fmt(ce.get('winding_resistance_ohm'), 3)} / "
-                f"{fmt(ca.get('winding_resistance_ohm'), 3)}",
+                "rw": f"{fmt(ce.get('series_resistance_ohm'), 3)} / "
+                f"{fmt(ca.get('series_resistance_ohm'), 3)}",
             }
         )
     return [
@@ -285,7 +285,7 @@ def _chain_blocks(rec, names):
                 ("mu_i", "mu_i exact / approx."),
                 ("hc", "H_c (Oe)"),
                 ("bp", "B_p (G)"),
-                ("rw", "r_winding (ohm)"),
+                ("rw", "r_series (ohm)"),
             ],
         ),
     ]

@@ -16,8 +16,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from fitdf.inference.material import RESISTANCE_TOLERANCE
-from fitdf.inference.problem import R_WINDING_PRIOR_SIGMA
+from fitdf.data.cores import STACKING_FACTOR, STACKING_FACTOR_RANGE
 from fitdf.report.document import law, law_names
 
 __all__ = [
@@ -37,35 +36,36 @@ QUANTITY_NAMES = {
     "peak_flux_density_Bp": "peak flux density B_p",
     "residual_induction_Br": "residual induction B_r",
     "squareness_Br_over_Bp": "squareness B_r/B_p",
-    "winding_resistance": "winding resistance",
+    "series_resistance": "series resistance",
 }
 
 #: What "outside" means for a material constant of a fit.
 OUTSIDE = (
-    "the fitted constant lies outside the Appendix A catalogue range of the core's material "
-    f"(for the winding resistance: more than {RESISTANCE_TOLERANCE:.0%} from its Appendix A "
-    "estimate)"
+    "the fitted constant lies outside the Appendix A catalogue range of the core's material, "
+    f"at the nominal stacking factor {STACKING_FACTOR:g} (for the series resistance: outside "
+    "the central 95 % of its prior, the winding's Appendix A estimate plus a typical source and "
+    "leads)"
 )
 
 #: What the describing function leaves open about the material constants (from
 #: :mod:`fitdf.data.cores` and :mod:`fitdf.inference.material`), for the report's text.
 UNDETERMINED = (
-    "At one source impedance the data fix a core only up to a current scale that trades "
-    "against the winding resistance, so there the permeabilities and the coercive force move "
-    f"with it (a log-normal prior of width {R_WINDING_PRIOR_SIGMA:.0%} about the Appendix A "
-    "estimate holds the resistance; the joint fits of 0 and 600 ohm fix it); B_p and B_r are "
-    "the tip and remanence of the largest loop the tables reach, not of the catalogue's "
-    "unprinted test conditions, so a B_p below the range is what a loop short of that test "
-    "field gives: a lower bound, not a contradiction"
+    "The describing function does not determine the iron fraction of the core's section (the "
+    "stacking factor, which the thesis does not print): inductions and permeabilities scale as "
+    "its inverse, so they are also given over the range of tape-wound cores, "
+    f"{STACKING_FACTOR_RANGE[0]:g}-{STACKING_FACTOR_RANGE[1]:g}. At one source impedance the data "
+    "fix a core only up to a current scale that trades against the series resistance, so there "
+    "the permeabilities and the coercive force rest on the resistance's prior; the joint fits of "
+    "0 and 600 ohm determine them. B_p and B_r are the tip and remanence of the largest loop the "
+    "tables reach, not of the catalogue's unprinted test conditions"
 )
 
 
 #: The same, in short, for the conclusion.
 _UNDETERMINED_SHORT = (
-    "the describing function does not determine all of them: at one source impedance the "
-    "permeabilities and the coercive force trade against the winding resistance, and B_p and "
-    "B_r are those of the largest loop the tables reach, so a B_p below the range is a lower "
-    "bound"
+    "the describing function does not determine all of them: inductions and permeabilities "
+    "carry the unprinted iron fraction of the section, and at one source impedance the "
+    "permeabilities and the coercive force trade against the series resistance"
 )
 
 
@@ -411,10 +411,18 @@ def _cross_findings(results) -> list[str]:
                 f"Cross-impedance, {d['core']}: fitted at {d['train_ohm']:g} ohm "
                 f"({d['train_block']}), {names(r['model'])} predicts the {d['test_ohm']:g} "
                 f"ohm data ({d['test_block']}) best with RMS complex residual "
-                f"{r['predict_rms_complex']:.3f} (training residual "
+                f"{r['predict_rms_complex']:.3f} averaged over the series resistance's prior"
+                f"{_spread_text(r)} (training residual "
                 f"{r['train_rms_complex']:.3f}{own_text})."
             )
     return out
+
+
+def _spread_text(row) -> str:
+    low, high = row.get("predict_rms_complex_min"), row.get("predict_rms_complex_max")
+    if low is None or high is None or low == high:
+        return ""
+    return f" ({low:.3f}-{high:.3f} across it)"
 
 
 def _joint_findings(results) -> list[str]:

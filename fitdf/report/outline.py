@@ -198,13 +198,28 @@ def _summary_table(res):
     )
 
 
+def _spread(row) -> str:
+    """The prediction RMS over the series-resistance prior's nodes, ``low-high at r1..r3 ohm``."""
+    nodes = row.get("r_series_nodes") or []
+    if len(nodes) < 2:
+        return "held at " + (f"{nodes[0]:.0f} ohm" if nodes else "n/a")
+    return (
+        f"{row['predict_rms_complex_min']:.3f}-{row['predict_rms_complex_max']:.3f} "
+        f"(r_series {nodes[0]:.0f}-{nodes[-1]:.0f} ohm)"
+    )
+
+
 def _cross_blocks(res):
     out = [
         H(2, _CROSS),
         P(
-            "Each core fitted at one source impedance predicts its data at the other: the core's parameters and "
-            "the winding resistance come from the training fit; only the target table's calibration gain is "
-            "refitted (the tables use different DF factors, see the audit)."
+            "Each core fitted at one source impedance predicts its data at the other: the core's parameters "
+            "come from the training fit; only the target table's calibration gain is refitted (the tables use "
+            "different DF factors, see the audit). Data at one impedance do not determine the series resistance "
+            "(winding, source and leads: it trades against the core's current scale), and the prediction "
+            "depends on it, so it is averaged over the resistance's prior: the prediction RMS is that of the "
+            "prior-weighted mean prediction, and its spread the RMS at the prior's three quadrature nodes "
+            "(median and median x/÷ e^(1.73 sigma))."
         ),
     ]
     if not res["cross_impedance"]:
@@ -220,11 +235,15 @@ def _cross_blocks(res):
         )
         out.append(
             _records_table(
-                [{**row, "model": law(names, row["model"])} for row in d["rows"]],
+                [
+                    {**row, "model": law(names, row["model"]), "spread": _spread(row)}
+                    for row in d["rows"]
+                ],
                 [
                     ("model", "law"),
                     ("train_rms_complex", "training RMS complex"),
                     ("predict_rms_complex", "prediction RMS complex"),
+                    ("spread", "over the resistance prior"),
                     ("predict_rms_magnitude", "prediction RMS |DF|"),
                     ("predict_rms_phase_deg", "prediction RMS phase (deg)"),
                     ("calibration_gain", "refitted gain"),

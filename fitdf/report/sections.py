@@ -320,7 +320,7 @@ _COMPARED_CONSTANTS = (
     "coercive_force_oe",
     "peak_flux_density_gauss",
     "squareness",
-    "winding_resistance_ohm",
+    "series_resistance_ohm",
 )
 
 
