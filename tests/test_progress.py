@@ -197,15 +197,27 @@ def _plan(settings):
 def test_a_quick_run_names_no_mcmc():
     quick = ReportSettings.for_run(quick=True)
     labels = phase_labels(quick)
-    assert labels == ("least squares", "winding refits, cross-impedance, limit cycles", "figures")
+    assert labels == (
+        "least squares",
+        "winding refits, rate-dependent refits, cross-impedance, limit cycles",
+        "figures",
+    )
     phases, what = _plan(quick)
     assert [p.label for p in phases] == list(labels)
     text = " ".join(labels) + " ".join(what)
     assert "MCMC" not in text and "cross-validation" not in text
     full = phase_labels(ReportSettings.for_run())
-    assert full[1] == "MCMC, cross-validation, winding refits, cross-impedance, limit cycles"
+    assert full[1] == (
+        "MCMC, cross-validation, winding refits, rate-dependent refits, cross-impedance, "
+        "limit cycles"
+    )
     bare = ReportSettings(
-        mcmc_top=0, cv_top=0, cross=(), limit_cycles=False, approximate_chain=None
+        mcmc_top=0,
+        cv_top=0,
+        cross=(),
+        limit_cycles=False,
+        approximate_chain=None,
+        dynamic_chain=None,
     )
     phases, _ = _plan(bare)
     assert [p.label for p in phases] == ["least squares", "figures"]  # no empty second phase
@@ -216,7 +228,9 @@ def test_the_full_run_is_planned_as_the_committed_report_ran():
     committed report took: its own jobs, on its 2 workers."""
     full = ReportSettings.for_run()
     phases, what = _plan(full)
-    assert [len(p.planned) for p in phases] == [56, 100, 12]
+    # (the second phase: 21 chains, 14 cross-validations, 56 winding and 14 rate-dependent
+    # refits, 8 cross-impedance predictions and the limit cycles)
+    assert [len(p.planned) for p in phases] == [56, 114, 12]
     assert what[:3] == [
         "56 least-squares fits (8 laws on 7 blocks)",
         "21 MCMC chains",

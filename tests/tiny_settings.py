@@ -26,6 +26,9 @@ TINY = ReportSettings(
     cv_top=1,
     cross_top=1,
     cross=(("permalloy", 0.0, 600.0, "B.1", "B.3"),),
+    # one refit with rate-dependent losses per block (the physics section), not cross-validated
+    dynamic_top=1,
+    dynamic_cv=False,
     workers=1,
 )
 

@@ -59,6 +59,8 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+import numpy as np
+
 from fitdf import __version__
 from fitdf.data.datasets import data_dir
 from fitdf.errors import OptionError
@@ -74,6 +76,7 @@ from fitdf.machine import machine_record
 from fitdf.models import get_model, model_names
 from fitdf.report import costs, render
 from fitdf.report import sections as rs
+from fitdf.report.physics import physics_record
 from fitdf.report.progress import RunProgress
 
 __all__ = [
@@ -189,6 +192,15 @@ class ReportSettings:
     approximate_screen : int
         Starts from the usual screen that refit adds to the exact chain's optimum (0: the
         nearest optimum of the approximation only; ``--quick``).
+    dynamic_chain : str or None
+        The chain with rate-dependent losses (``dynamic``: Bertotti's dynamic fields) the
+        best ``dynamic_top`` laws of each block (``dynamic_skip`` aside: Jiles-Atherton's cost)
+        are refitted through by least squares, ranked beside the static fits by AICc and, with
+        ``dynamic_cv``, cross-validation (:mod:`fitdf.report.physics`); None skips them.
+    printed_top : int
+        On every block whose rows the audit's reversed column changes (the default row
+        policy reverses it), the best ``printed_top`` laws are also fitted to the rows as
+        printed (policy ``as_printed``), to show both.
     """
 
     models: tuple | None = None
@@ -213,6 +225,11 @@ class ReportSettings:
     chain: str = DEFAULT_CHAIN
     approximate_chain: str | None = "winding"
     approximate_screen: int = 1
+    dynamic_chain: str | None = "dynamic"
+    dynamic_top: int | None = 2
+    dynamic_skip: tuple = ("jiles_atherton",)
+    dynamic_cv: bool = True
+    printed_top: int | None = 2
 
     @classmethod
     def for_run(
@@ -234,6 +251,9 @@ class ReportSettings:
                 cv_top=0,
                 cross_top=1,
                 approximate_screen=0,
+                dynamic_top=1,
+                dynamic_cv=False,
+                printed_top=1,
                 scheduler=scheduler,
             )
         return cls(
@@ -293,6 +313,31 @@ def _job_cv(lsq, seed, n_starts):
     return cross_validate(lsq, seed=seed, n_starts=n_starts)
 
 
+def _job_dynamic(lsq, seed, chain, cross_validated, static_cv):
+    """``lsq``'s law and data refitted through the rate-dependent ``chain``: polished from the
+    static optimum with the loss coefficients at the bottom of their boxes (the static fit)
+    and at their typical values, and from the best point of the usual screen. Returns the fit,
+    its cross-validation (None unless ``cross_validated``) and, when ``static_cv``, the static
+    fit's."""
+    p = lsq.problem
+    problem = FitProblem(p.data, p.model, chain, p.noise, p.fixed, p.geometry)
+    losses = [s for s in problem.specs if s.name not in lsq.values]
+    starts = [
+        problem.to_internal({**lsq.values, **{s.name: pick(s) for s in losses}})
+        for pick in (lambda s: s.bounds[0], lambda s: s.default)
+    ]
+    fit = with_material(fit_lsq(problem, seed=seed, starts=starts, also_screen=1))
+    cv = cross_validate(fit, seed=seed) if cross_validated else None
+    return fit, cv, cross_validate(lsq, seed=seed) if static_cv else None
+
+
+def _job_printed(data, model, seed, n_starts, chain):
+    """``model`` fitted to ``data``'s rows as printed (no column reversed)."""
+    return fit(
+        data, model, chain=chain, method="lsq", seed=seed, n_starts=n_starts, policy="as_printed"
+    )
+
+
 def _job_cross(core, model, train_ohm, test_ohm, seed, n_starts, chain):
     return cross_impedance(
         core,
@@ -337,7 +382,7 @@ def _job_figures(kind, payload):
 
 
 # ------------------------------------------------------------------ computation
-_KIND_ORDER = {"limit": 0, "mcmc": 1, "approx": 2, "cv": 3, "cross": 4}
+_KIND_ORDER = {"limit": 0, "mcmc": 1, "dynamic": 2, "approx": 3, "cv": 4, "printed": 5, "cross": 6}
 
 
 def _long_first(item):
@@ -345,7 +390,7 @@ def _long_first(item):
     key, (_, args) = item
     size = (
         rs.expected_cost(args[0].problem.data.label, key[2])
-        if key[0] in ("mcmc", "cv", "approx")
+        if key[0] in ("mcmc", "cv", "approx", "dynamic")
         else 0.0
     )
     return (_KIND_ORDER[key[0]], -size)
@@ -377,9 +422,24 @@ def _least_squares(settings, seed, runner, models, blocks) -> dict:
     return runner.run(jobs, costs.phase_labels(settings)[0])
 
 
+def printed_blocks(blocks) -> list:
+    """The blocks whose default rows differ from the rows as printed (a reversed column)."""
+    out = []
+    for b in blocks:
+        default, printed = (resolve_data(b.data, policy) for policy in ("default", "as_printed"))
+        same = default.n == printed.n and all(
+            np.array_equal(getattr(default, k), getattr(printed, k))
+            for k in ("amplitude", "frequency", "source_impedance", "measured")
+        )
+        if not same:
+            out.append(b)
+    return out
+
+
 def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -> dict:
     """MCMC and cross-validation of each block's best models, every model refitted through the
-    approximate chain, cross-impedance, limit cycles."""
+    approximate chain, the best refitted with rate-dependent losses and to the rows as printed,
+    cross-impedance, limit cycles."""
     jobs = {}
     if settings.limit_cycles:
         winners = rs.aicc_winners(lsq, models, LIMIT_CYCLE_BLOCKS)
@@ -402,6 +462,20 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
             )
         for m in _top(ranked[b.key], settings.cv_top):
             jobs[("cv", b.key, m)] = (_job_cv, (lsq[(b.key, m)], seed, settings.cv_starts))
+        if settings.dynamic_chain:
+            cv_laws = set(_top(ranked[b.key], settings.cv_top))
+            dynamic = [m for m in ranked[b.key] if m not in settings.dynamic_skip]
+            for m in _top(dynamic, settings.dynamic_top):
+                jobs[("dynamic", b.key, m)] = (
+                    _job_dynamic,
+                    (
+                        lsq[(b.key, m)],
+                        seed,
+                        settings.dynamic_chain,
+                        settings.dynamic_cv,
+                        settings.dynamic_cv and m not in cv_laws,
+                    ),
+                )
         if settings.approximate_chain:
             for m in models:
                 jobs[("approx", b.key, m)] = (
@@ -413,6 +487,12 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
                         settings.approximate_screen,
                     ),
                 )
+    for b in printed_blocks(blocks):
+        for m in _top(ranked[b.key], settings.printed_top):
+            jobs[("printed", b.key, m)] = (
+                _job_printed,
+                (b.data, m, seed, settings.n_starts, settings.chain),
+            )
     for core, train, test, train_key, _ in settings.cross:
         for m in _top(ranked.get(train_key, models), settings.cross_top):
             jobs[("cross", core, train, test, m)] = (
@@ -426,7 +506,7 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
     )
     out = {
         kind: {k[1:]: v for k, v in done.items() if k[0] == kind}
-        for kind in ("mcmc", "cv", "cross", "approx")
+        for kind in ("mcmc", "cv", "cross", "approx", "dynamic", "printed")
     }
     out["limit"] = _keep_files(done[("limit",)], figdir) if ("limit",) in done else None
     return out
@@ -510,6 +590,17 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: Executor)
         "thesis_graphs": figures[("thesis",)],
         "models": rs.model_descriptions(models),
     }
+    results["physics"] = physics_record(
+        results,
+        audit_findings=results["audit"]["findings"],
+        printed={k: v for k, v in second["printed"].items()},
+        dynamic={k: (fit, cv) for k, (fit, cv, _) in second["dynamic"].items()},
+        static_cv={
+            **{k: v for k, v in second["cv"].items()},
+            **{k: s for k, (_, _, s) in second["dynamic"].items() if s is not None},
+        },
+        supermalloy=_supermalloy(lsq, ranked, second["dynamic"]),
+    )
     results["findings"] = rs.findings(results)
     # The opening figure reads the assembled record (cheap: drawn here, not as a pool job).
     results["summary_figure"] = rs.summary_figure(results, figdir)
@@ -517,6 +608,16 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: Executor)
     timing["reused_jobs"] = list(runner.reused)
     results["timing"] = timing
     return results
+
+
+def _supermalloy(lsq, ranked, dynamic) -> tuple:
+    """Table B.4's best law that was refitted with rate-dependent losses: ``(static, dynamic)``
+    fits (``(None, None)`` when B.4 was not fitted)."""
+    laws = [m for m in ranked.get("B.4", []) if ("B.4", m) in dynamic]
+    if not laws:
+        best = ranked.get("B.4", [None])[0]
+        return (lsq.get(("B.4", best)), None) if best else (None, None)
+    return lsq[("B.4", laws[0])], dynamic[("B.4", laws[0])][0]
 
 
 def write_outputs(results: dict, out_dir: Path) -> None:

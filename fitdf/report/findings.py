@@ -483,6 +483,38 @@ def findings(results: dict) -> list[str]:
         for rec in results.get("small_signal", [])
     ]
     out += _joint_findings(results)
+    out += _physics_findings(results.get("physics"))
     out += _audit_findings(results.get("audit", {}))
     lc = _limit_finding(results.get("limit_cycles", {}))
     return out + ([lc] if lc else [])
+
+
+def _physics_findings(ph) -> list[str]:
+    """The physics section in one or two sentences: the aims not met, the rate-dependent loss."""
+    if not ph:
+        return []
+    missed = [a["aim"] for a in ph["aims"] if not a["met"]]
+    out = [
+        f"Physics: {len(ph['aims']) - len(missed)} of {len(ph['aims'])} aims met"
+        + (f"; not met: {', '.join(missed)}." if missed else ".")
+    ]
+    better = [
+        f"{key} ({r['model']}, AICc {r['delta_aicc']:+.1f})"
+        for key, rows in (ph.get("rate_dependent") or {}).items()
+        for r in rows
+        if r.get("delta_aicc") is not None and r["delta_aicc"] <= -2
+    ]
+    out.append(
+        "Rate-dependent losses (the dynamic chain) improve the fit by more than 2 in AICc on "
+        + (", ".join(better) if better else "no block")
+        + "."
+    )
+    fall = ph.get("supermalloy_fall")
+    if fall and "reproduced" in fall:
+        out.append(
+            f"Supermalloy's small-signal permeability falls {fall['fall_measured']:.2f}x from "
+            f"{fall['frequencies_hz'][0]:g} to {fall['frequencies_hz'][1]:g} c/s; the refit with "
+            f"rate-dependent losses gives {fall['fall_dynamic']:.2f}x"
+            + (" (reproduced within 20 %)." if fall["reproduced"] else ", not within 20 %.")
+        )
+    return out

@@ -29,6 +29,7 @@ from fitdf.report.document import (
     slug,
 )
 from fitdf.report.findings import UNDETERMINED, conclusion, findings
+from fitdf.report.physics_outline import PHYSICS, physics_blocks
 
 __all__ = ["build_document", "nav_links"]
 
@@ -430,6 +431,7 @@ def nav_links(res: dict) -> list[tuple[str, str]]:
     links += [
         ("+".join(b.get("tables") or [b["key"]]), slug(b["title"])) for b in res["blocks"].values()
     ]
+    links += [("Physics", slug(PHYSICS))] if res.get("physics") else []
     return links + [
         ("Cross-impedance", slug(_CROSS)),
         ("Small signals", slug(_SMALL)),
@@ -446,6 +448,7 @@ def build_document(res: dict) -> list:
     toc = ["[Findings](#findings)", "[Summary](#summary)"]
     toc += [f"[{b['title']}](#{slug(b['title'])})" for b in blocks]
     toc += [
+        *([f"[{PHYSICS}](#{slug(PHYSICS)})"] if res.get("physics") else []),
         "[Cross-impedance prediction](#cross-impedance-prediction)",
         f"[{_SMALL}](#{slug(_SMALL)})",
         "[Limit cycles (Tables 5.1, 5.2)](#limit-cycles-tables-51-52)",
@@ -476,7 +479,8 @@ def build_document(res: dict) -> list:
     for b in blocks:
         doc += _block_blocks(b, names)
     doc += (
-        _cross_blocks(res)
+        physics_blocks(res)
+        + _cross_blocks(res)
         + _small_signal_blocks(res)
         + _limit_blocks(res)
         + _audit_blocks(res)
