@@ -13,6 +13,9 @@ analyser read:
 * :class:`~fitdf.chains.winding.WindingChain` (``winding``) -- its sinusoidal-current
   approximation: ``I |R + Z(I, f)| = V`` with ``Z = j 2 pi f N(I, f)``, and
   ``DF = gain Z / (R + Z)``;
+* :class:`~fitdf.chains.dynamic.DynamicChain` (``dynamic``) -- the ``voltage`` chain's
+  circuit with rate-dependent losses on top of the law's loop: Bertotti's classical
+  eddy-current and excess fields, ``i = i_h + c_cl e + c_ex sign(e) |e|^(1/2)``;
 * :class:`~fitdf.chains.direct.DirectChain` (``direct``) -- ``DF = N(V / input_scale)``:
   the core as the nonlinearity itself, without source impedance and without phase lead
   (a passive loop has ``Im N <= 0``); the baseline for comparing shapes (section V.4.1).

@@ -5,9 +5,9 @@ of the circuit of Fig 5.10 (thesis section V.5) when the core's field has, besid
 rate-independent law's, the classical eddy-current and excess (domain-wall) terms of
 Bertotti's loss separation in the dynamic-field form.
 
-Model
+Notes
 -----
-Bertotti's statistical theory of losses (G. Bertotti, "General properties of power losses
+*The model.* Bertotti's statistical theory of losses (G. Bertotti, "General properties of power losses
 in soft ferromagnetic materials", IEEE Trans. Magn. 24 (1988) 621) separates the loss per
 cycle into hysteresis, classical and excess parts; written as fields acting on the
 lamination, as in the dynamic models of Zirka et al. (S.E. Zirka, Y.I. Moroz, P. Marketos,
@@ -21,7 +21,7 @@ Magn. 42 (2006) 2121)::
 ``V0`` the field of the statistical distribution of local coercive fields and
 ``G = 0.1356`` (Bertotti 1988). ``H_stat`` is the rate-independent law, whatever it is:
 with ``H = N i / l_e``, ``lambda = N A_e B`` and the EMF ``e = d lambda/dt`` the winding
-current is ``i = i_h + g(e)`` with ``lambda = B(i_h)`` the law's branch and
+current is ``i = i_h + g(e)`` with ``lambda = B(i_h)`` the law's branch and::
 
     g(e) = c_cl e + c_ex sign(e) |e|^(1/2),
     c_cl = k_cl l_e / (N^2 A_e)      (a conductance, S),
@@ -41,9 +41,7 @@ excess term is not such a rescaling: its current grows as the square root of the
 at small amplitudes it dominates the law's current and gives a loss angle that grows
 with frequency.
 
-Method
-------
-The rate-dependent current vanishes where ``e = 0``, i.e. at the extrema of the flux, so
+*The method.* The rate-dependent current vanishes where ``e = 0``, i.e. at the extrema of the flux, so
 the turning points are those of the static circuit (``i = i_h``): the branch amplitude is
 ``i_h``'s peak ``a``, the half period starts at ``phi0 = -arcsin(R a / V)``, and the
 ``voltage`` chain's root search on ``a`` carries over unchanged. Each implicit step (BDF2,
