@@ -29,7 +29,14 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
-from test_voltage_chain import reference_rayleigh
+from test_voltage_chain import (
+    NEAR_FLAT_POINTS,
+    STEEP_R,
+    STEEP_THETA,
+    NearFlatTop,
+    reference_rayleigh,
+    rising_half,
+)
 
 from fitdf.chains import CHAINS, DynamicChain, VoltageChain, get_chain
 from fitdf.chains.voltage import steady_state_waveform
@@ -332,6 +339,37 @@ def test_waveform_energy_balance_and_symmetry(V, f, Rs):
     peak = DynamicChain.peak_current("rayleigh", V, f, Rs, THETA, ct)
     assert i.max() == pytest.approx(peak.item(), rel=2e-3)
     assert ss.df == pytest.approx(DynamicChain.predict("rayleigh", V, f, Rs, THETA, ct).item())
+
+
+# ---------------------------------------------------------------- nearly flat saturation
+@pytest.mark.parametrize("c_cl, c_ex", [(1e-6, 1e-6), (1e-5, 1e-4)])
+def test_nearly_flat_top_holds_the_current_at_its_peak(c_cl, c_ex):
+    """Where the flux reaches a nearly flat top (``test_voltage_chain.NearFlatTop``, 1e-6 H)
+    just before the half period ends: ``e < 0`` is ``R i_h > v`` (``R g(e) + e`` has the sign
+    of ``e``), and a step with it is located to the shortest step and held at
+    ``i_h = max(v/R, i)``, ``e = 0``, as on the static path. The waveform's rising current
+    has no negative EMF, and its peak is :meth:`DynamicChain.peak_current`'s (with the state
+    held at the step's start instead, as before, up to 1.2e-3 apart)."""
+    V, f, Rs = (np.array(c) for c in zip(*NEAR_FLAT_POINTS))
+    ct = [STEEP_R, 1.0, c_cl, c_ex]
+    peak = DynamicChain.peak_current(NearFlatTop, V, f, Rs, STEEP_THETA, ct)
+    for k, point in enumerate(NEAR_FLAT_POINTS):
+        ss = steady_state_waveform(NearFlatTop, *point, STEEP_THETA, ct, chain=DynamicChain)
+        _, e = rising_half(ss)
+        assert e.min() >= -1e-9 * V[k], (point, e.min())
+        assert ss.current.max() == pytest.approx(peak[k], rel=1e-3), point
+
+
+def test_vanishing_coefficients_on_a_nearly_flat_top():
+    """With coefficients 1e-30 the rate-dependent path holds the peak as the static one does:
+    DF and branch amplitude are the ``voltage`` chain's within its tolerance (before, the held
+    state stayed below ``V sin/R`` until a later step: amplitude up to 3.7e-3 off)."""
+    V, f, Rs = (np.array(c) for c in zip(*NEAR_FLAT_POINTS))
+    static = VoltageChain.operating_point(NearFlatTop, V, f, Rs, STEEP_THETA, [STEEP_R, 1.0])
+    for c in ([1e-30, 0.0], [0.0, 1e-30]):
+        tiny = DynamicChain.operating_point(NearFlatTop, V, f, Rs, STEEP_THETA, [STEEP_R, 1.0, *c])
+        assert np.abs(tiny.df - static.df).max() <= 2e-4
+        np.testing.assert_allclose(tiny.current, static.current, rtol=2e-3)
 
 
 # ---------------------------------------------------------------- interface

@@ -261,6 +261,30 @@ def _dyn_step(x, B, j, i, lam, R, alpha, beta, v, c_cl, c_ex, s_ext):
 
 
 @numba.njit(cache=True)
+def _hold_peak(x, B, j, j_new, i, lam, i_top, s_ext):
+    """The state at a step that passed the current's peak: ``(j, i, lam)``.
+
+    The step's solution (in cell ``j_new``, from ``i`` in cell ``j``) lies above
+    ``i_top = v / R``, i.e. its EMF is negative while the current rises, which the
+    ascending branch does not allow. The current is held at ``max(i_top, i)`` -- where it
+    meets ``V sin/R`` (EMF 0), or where it was if it had already passed -- and the flux is
+    the branch's there (the pointer moves back to its cell; beyond the tip, the last cell's
+    line), never below the flux ``lam`` already reached.
+    """
+    M = x.shape[0]
+    i_c = max(i_top, i)
+    while j_new > j and x[j_new] > i_c:
+        j_new -= 1
+    if j_new >= M - 1:
+        lam_c = B[M - 1] + s_ext * (i_c - x[M - 1])
+    else:
+        dx = x[j_new + 1] - x[j_new]
+        t = min(max((i_c - x[j_new]) / dx, 0.0), 1.0) if dx > 0 else 0.0
+        lam_c = B[j_new] + t * (B[j_new + 1] - B[j_new])
+    return j_new, i_c, max(lam_c, lam)
+
+
+@numba.njit(cache=True)
 def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
     """One rising half period of ``R i + w dlam/dtheta = V sin(theta)``, ``lam = B(i)``.
 
@@ -274,6 +298,15 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
     by more than ``dsig`` along the branch (current over ``2 x[-1]`` plus flux over its
     range) -- the sharp rise of the current into saturation -- where they shrink (down to
     ``pi / (64 n)``; a genuine jump onto a flat cannot be resolved and is accepted).
+    While the current rises on the ascending branch its EMF ``B'(i) di/dt`` is not
+    negative, i.e. ``i <= V sin/R``; a step whose solution has ``R i > v`` (BDF2's difference
+    quotient carries the flux rate of the steps before past the current's peak: by a
+    current of order ``|e| / R`` where the flux stops at a kink into a nearly flat
+    saturation) is shortened to ``pi / (64 n)`` to locate the peak, and the current is
+    then held at ``max(v / R, i)`` with its flux on the branch (:func:`_hold_peak`); on an
+    exact flat it is held at once (the jump below). The recorded current and ``i_max`` are
+    the held ones. (On the rate-dependent path the same: ``R i_h > v`` is ``e < 0``, and
+    the held state has ``e = 0``, ``g = 0``.)
 
     Returns ``(i_max, ls, lc, n_steps, i_peak)``: the largest current reached -- including,
     when a step lands on a flat (zero inductance, the current jumps), the current ``V sin/R``
@@ -376,13 +409,13 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
                 # The flux's extremum lies inside the step (BDF2 lets the flux still rise
                 # under a negative EMF): localise it, then hold. Rising on, i_h would creep
                 # past the peak by R g(e) / R = c_ex |e|^(1/2), which the square root makes
-                # large for the smallest |e|.
+                # large for the smallest |e|. ``e < 0`` is ``R i_h > v`` (``R g(e) + e`` has
+                # the sign of ``e``): the static path's condition, and the same hold, where
+                # ``e = 0``, ``g = 0`` and ``i_h = v/R`` (or the current already reached).
                 if h > h_min:
                     h_try = max(0.25 * h, h_min)
                     continue
-                j_new = j
-                i_new = i
-                lam_new = lam
+                j_new, i_new, lam_new = _hold_peak(x, B, j, j_new, i, lam, v / R, s_ext)
                 e_new = 0.0
         elif a * i + coef * lam < rhs:  # else: the current would fall; hold it
             while j_new < M - 1 and a * x[j_new + 1] + coef * B[j_new + 1] < rhs:
@@ -402,6 +435,17 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
                 # on a flat the EMF is 0 (no flux change), never negative: BDF2's
                 # difference quotient overshoots after the kink where the flux stops
                 i_new = max(v / R, i)
+            elif R * i_new > v and i_new > i:
+                # A negative EMF while the current rises: on the ascending branch
+                # ``e = B'(i) di/dt >= 0``, so the current's peak (where it meets V sin/R)
+                # lies inside the step and BDF2's difference quotient, carrying the flux
+                # rate of the steps before, overshoots it -- by a current of order
+                # ``|e| / R`` where the cell is nearly flat (the flux stops at a kink into
+                # saturation). Locate the peak to ``h_min``, then hold the current there.
+                if h > h_min:
+                    h_try = max(0.25 * h, h_min)
+                    continue
+                j_new, i_new, lam_new = _hold_peak(x, B, j, j_new, i, lam, v / R, s_ext)
             jump = flat and lam_new > lam
         move = (i_new - i) * inv_i + (lam_new - lam) * inv_l
         if dyn and h_2 > 0.0 and lam_new > lam and i_new > i:
@@ -664,7 +708,11 @@ def secant_update(act, xs, gs, ds, it, X, G, D, F, C, done, tol, max_step, df_to
                 C[p, 1] = (D[p, use] - D[p, use + 1]) / (x1 - x2)
         both = np.isfinite(X[p, _L1]) and np.isfinite(X[p, _H1])
         narrow = hi - lo <= 0.125 * tol * hi
-        if both and hi - lo <= tol * hi and abs(D[p, _H1] - D[p, _L1]) <= 2.0 * df_tol:
+        # (a bracket of tol with DFs close at its ends will do where a secant root lies inside
+        # it; where none does, G jumps inside it -- the edge where the peak is reached by a
+        # jump into saturation, G > 0 up to it -- and the bracket is narrowed to tol / 8, so
+        # the peak current too is close to the edge)
+        if both and use >= 0 and hi - lo <= tol * hi and abs(D[p, _H1] - D[p, _L1]) <= 2.0 * df_tol:
             narrow = True
         mid = 0.5 * (lo + hi)
         if hi > 4.0 * lo:

@@ -302,7 +302,11 @@ def _search(
     ``slope0``. One evaluation never suffices: slopes from a coarser stage can be off by
     10x where the DF is sensitive (at the edge of a dead zone). Also when ``G = 0``, or
     the bracket is narrower than ``tol / 8``, or than ``tol`` with DFs at its ends within
-    ``2 df_tol`` (DF linear between its ends).
+    ``2 df_tol`` (DF linear between its ends) and a secant root inside it. (Where no secant
+    root falls inside the bracket, ``G`` jumps there -- the edge where the peak is reached
+    by a jump into saturation, ``G > 0`` up to it --: ``tol / 8`` puts the peak current, not
+    only the DF, near the edge; it took the DF's error at such edges from ~2e-4 to ~5e-5
+    against the exact piecewise references.)
 
     Returns ``(root, DF at the root, slope of G, slope of DF, lower end of the bracket)``;
     the slopes are those of the pair followed last (for a following stage).
