@@ -34,7 +34,7 @@ def _numba_cache_is_cold() -> bool:
 
 
 #: Compiled in a second process while the first compiles the other laws' kernels (and the
-#: chains', which both need): Jiles-Atherton's take ~8 s of the ~22 s of all of them.
+#: chains', which both need): Jiles-Atherton's take ~10 s of all of them.
 _COMPILED_APART = ("jiles_atherton",)
 
 

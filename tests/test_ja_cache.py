@@ -1,14 +1,16 @@
-"""The steady-loop cache of ``JilesAtherton.ascending_branch``: bit-identical, bounded, per process."""
+"""What ``JilesAtherton.ascending_branch`` keeps between calls (forced responses per parameter
+set, the previous call's nodes): bit-identical results, bounded, per process and thread."""
 
 from __future__ import annotations
 
 import multiprocessing
+import threading
 
 import numpy as np
 import pytest
 
-from fitdf.models._ja_branch import STEADY_CACHE, SteadyCache
-from fitdf.models._ja_integrate import _NMIN, _TOL, coupling
+from fitdf.models._ja_branch import RESPONSE_CACHE, ROW_MEMO, ResponseCache
+from fitdf.models._ja_integrate import _COARSE_TOL, _NMIN, _TOL
 from fitdf.models.jiles_atherton import JilesAtherton
 
 NAMES = ("lambda_s", "a", "k", "c", "zeta")
@@ -49,35 +51,40 @@ def branch(u, A, theta):
 
 
 def one_by_one(u, A, theta):
-    """The uncached path: each row alone, solved on an empty cache."""
+    """Each row alone, with nothing kept."""
     rows = []
     for i in range(A.size):
-        STEADY_CACHE.clear()
+        forget()
         rows.append(branch(u[i : i + 1], A[i : i + 1], theta[i : i + 1])[0])
-    STEADY_CACHE.clear()
+    forget()
     return np.array(rows)
 
 
+def forget():
+    RESPONSE_CACHE.clear()
+    ROW_MEMO.clear()
+
+
 @pytest.fixture
-def cache():
-    """The module cache, emptied before and after, its bounds restored."""
-    bounds = STEADY_CACHE.max_rows, STEADY_CACHE.max_floats
-    STEADY_CACHE.clear()
-    yield STEADY_CACHE
-    STEADY_CACHE.max_rows, STEADY_CACHE.max_floats = bounds
-    STEADY_CACHE.clear()
+def kept():
+    """The module cache and memo, emptied before and after, their bounds restored."""
+    bounds = RESPONSE_CACHE.max_floats, ROW_MEMO.max_rows
+    forget()
+    yield RESPONSE_CACHE
+    RESPONSE_CACHE.max_floats, ROW_MEMO.max_rows = bounds
+    forget()
 
 
-def test_cached_branch_is_bit_identical_for_repeated_partial_and_new_rows(cache):
+def test_kept_responses_and_nodes_give_the_bits_of_a_new_solve(kept):
     A, theta = draws(12, 3)
     rng = np.random.default_rng(4)
     m = A.size
     u1, u2, u3 = (rng.uniform(-1.0, 1.0, (m, K)) for K in (32, 64, 64))
     u2[:, 0], u3[:, -1] = -1.0, 1.0  # the tips too
     first = branch(u1, A, theta)
-    assert len(cache) == m
+    assert len(kept) == m  # one forced response per (lambda_s, a, k)
     np.testing.assert_array_equal(bits(first), bits(one_by_one(u1, A, theta)))
-    # the chain's pattern: the same rows again at new inputs, from the cache
+    # the chain's pattern: the same rows again at new inputs (their nodes from the memo)
     np.testing.assert_array_equal(bits(branch(u2, A, theta)), bits(one_by_one(u2, A, theta)))
     # partly repeated rows, shuffled, beside new ones (new amplitudes; one parameter moved)
     B, phi = draws(6, 5)
@@ -87,100 +94,142 @@ def test_cached_branch_is_bit_identical_for_repeated_partial_and_new_rows(cache)
     u_mix = rng.uniform(-1.0, 1.0, (mix.size, 64))
     warm = branch(u_mix, A_mix, th_mix)
     np.testing.assert_array_equal(bits(warm), bits(one_by_one(u_mix, A_mix, th_mix)))
-    # the cache disabled gives the same bits as well
-    cache.max_rows = 0
+    # a subset of the last call's rows, in order (their nodes from the memo)
+    subset = branch(u_mix[::3], A_mix[::3], th_mix[::3])
+    np.testing.assert_array_equal(bits(subset), bits(warm[::3]))
+    # both turned off give the same bits as well
+    kept.max_floats, ROW_MEMO.max_rows = 0, 0
+    forget()
     np.testing.assert_array_equal(bits(branch(u3, A, theta)), bits(one_by_one(u3, A, theta)))
-    assert len(cache) == 0
+    assert len(kept) == 0 and ROW_MEMO.calls == {}
 
 
-def test_cached_branch_broadcast_shapes_and_duplicate_rows(cache):
+def test_kept_branch_broadcast_shapes_and_duplicate_rows(kept):
     A, theta = draws(4, 7)
     kw = {name: theta[:, i, None, None] for i, name in enumerate(NAMES)}  # walkers (W, 1, 1)
     amps = np.array([1e-4, 3e-3, 3e-3, 0.2])[:, None]  # rows repeated within the call
     x = amps * np.linspace(-1.0, 1.0, 9)
     batch = JilesAtherton.ascending_branch(x, amps, **kw)
-    assert batch.shape == (A.size, 4, 9) and len(cache) == 3 * A.size
+    assert batch.shape == (A.size, 4, 9) and len(kept) == A.size
     again = JilesAtherton.ascending_branch(x[::-1], amps[::-1], **kw)[:, ::-1]
     np.testing.assert_array_equal(bits(again), bits(batch))
     for w in range(A.size):
         for j in range(4):
-            cache.clear()
+            forget()
             row = JilesAtherton.ascending_branch(
                 x[j], amps[j, 0], **{name: theta[w, i] for i, name in enumerate(NAMES)}
             )
             np.testing.assert_array_equal(bits(row), bits(batch[w, j]))
-    # scalars and a negative amplitude share the cached row of |A|
+    # scalars and a negative amplitude share the row of |A|; x broadcast against the rows
     th = {name: float(theta[1, i]) for i, name in enumerate(NAMES)}
     np.testing.assert_array_equal(
         bits(JilesAtherton.ascending_branch(x[1], -3e-3, **th)), bits(batch[1, 1])
     )
+    # rows along the last axis and inputs along the first (a sort, not blocks, per row)
+    amps2 = np.array([[3e-3, 1e-4]])
+    cols = JilesAtherton.ascending_branch(amps2 * np.linspace(-1.0, 1.0, 9)[:, None], amps2, **th)
+    assert cols.shape == (9, 2)
+    np.testing.assert_array_equal(bits(cols[:, 0]), bits(batch[1, 1]))
+    np.testing.assert_array_equal(bits(cols[:, 1]), bits(batch[1, 0]))
 
 
-def test_cached_branch_with_jumps_beyond_the_bounds(cache):
-    # zeta >= 1: the realised branch has a vertical jump; cached pieces are rebuilt exactly
+def test_kept_branch_with_jumps_beyond_the_bounds(kept):
+    # zeta >= 1: the realised branch has a vertical jump; kept nodes are rebuilt exactly
     th = dict(lambda_s=0.03, a=1e-3, k=3e-4, c=0.1, zeta=1.5)
     A = 3e-3
     x1, x2 = np.linspace(-A, A, 201), np.linspace(-A, A, 77) ** 3 / A**2
-    cold = [JilesAtherton.ascending_branch(x, A, **th) for x in (x1, x2)]
+    cold = []
+    for x in (x1, x2):
+        forget()
+        cold.append(JilesAtherton.ascending_branch(x, A, **th))
     assert np.any(np.diff(cold[0]) > 0.2 * th["lambda_s"])  # the jump is there
-    cache.clear()
+    forget()
     JilesAtherton.ascending_branch(x2, A, **th)
     warm = [JilesAtherton.ascending_branch(x, A, **th) for x in (x1, x2)]
     for c, w in zip(cold, warm):
         np.testing.assert_array_equal(bits(w), bits(c))
 
 
-def test_cache_is_bounded_and_keyed_by_every_kernel_input(cache):
+def test_cache_is_bounded_and_keyed_by_the_forced_response(kept):
     A, theta = draws(10, 11)
     u = np.tile(np.linspace(-1.0, 1.0, 16), (A.size, 1))
     reference = branch(u, A, theta)
-    kap = coupling(lambda_s=theta[:, 0], a=theta[:, 1], zeta=theta[:, 4])
-    raw = np.column_stack([A, *theta[:, :4].T, kap, np.full(A.size, _TOL), np.full(A.size, _NMIN)])
-    keys = [row.tobytes() for row in raw]
-    assert list(cache._rows) == keys
-    # a call beyond the bounds keeps its first rows (repeating it hits on them), whatever came
-    # before; the results never change
-    for max_rows, max_floats in ((7, 1 << 21), (8192, 4000), (0, 1 << 21)):
-        cache.max_rows, cache.max_floats = max_rows, max_floats
+    size = next(iter(kept._sets.values())).size
+    keys = [np.array([*row[:3], _TOL]).tobytes() for row in theta]
+    assert list(kept._sets) == keys
+    # c and zeta do not change the forced response: the same tables, no new ones
+    other = theta.copy()
+    other[:, 3:] = other[::-1, 3:]
+    branch(u, A, other)
+    assert list(kept._sets) == keys
+    # a call beyond the bound keeps its first tables (repeating it hits on them), whatever
+    # came before; the results never change
+    for max_floats in (7 * size, 0):
+        kept.max_floats = max_floats
         for _ in range(2):
+            ROW_MEMO.clear()
             np.testing.assert_array_equal(bits(branch(u, A, theta)), bits(reference))
-            kept = list(cache._rows)
-            assert len(kept) <= max_rows and cache._floats <= max_floats
-            assert kept == keys[: len(kept)]
-            assert cache._floats == sum(row.size for row in cache._rows.values())
-    assert len(kept) == 0
-    cache.max_rows = 7
-    branch(u, A, theta)
-    assert list(cache._rows) == keys[:7]
-    # older calls' rows make room for a new call's
-    cache.max_rows = 12
+            held = list(kept._sets)
+            assert kept._floats <= max_floats and held == keys[: len(held)]
+            assert kept._floats == sum(t.size for t in kept._sets.values())
+    assert len(held) == 0
+    # older calls' tables make room for a new call's
+    kept.max_floats = 12 * size
     branch(u[:10], A[:10], theta[:10])
     branch(u[10:], A[10:], theta[10:])
-    assert list(cache._rows) == keys[8:10] + keys[10:]
-    # the step control is part of the key: another tol is solved, not taken from the cache
-    store = SteadyCache()
-    args = (A[:3], *theta[:3, :4].T, kap[:3])
-    fine = store.branches(*args, _TOL, _NMIN)
-    coarse = store.branches(*args, 1e-5, 8)
-    assert len(store) == 6 and coarse[0].size < fine[0].size
-    np.testing.assert_array_equal(bits(store.branches(*args, _TOL, _NMIN)[0]), bits(fine[0]))
+    assert list(kept._sets) == keys[8:10] + keys[10:]
+    # the tolerance is part of the key: the rough branch's tables are others
+    store = ResponseCache()
+    args = tuple(np.ascontiguousarray(v) for v in theta[:3, :3].T)
+    fine = store.tables(*args, _TOL)
+    coarse = store.tables(*args, _COARSE_TOL)
+    assert len(store) == 6 and coarse[0].shape[1] < fine[0].shape[1]
+    np.testing.assert_array_equal(bits(store.tables(*args, _TOL)[0]), bits(fine[0]))
+    np.testing.assert_array_equal(fine[1], [0, 1, 2])
+
+
+def test_row_memo_holds_the_last_call_per_tabulation_and_thread(kept):
+    A, theta = draws(3, 17)
+    u = np.tile(np.linspace(-1.0, 1.0, 8), (A.size, 1))
+    exact = branch(u, A, theta)
+    kw = {name: theta[:, i, None] for i, name in enumerate(NAMES)}
+    rough = JilesAtherton.rough_branch(A[:, None] * u, A[:, None], **kw)
+    assert set(ROW_MEMO.calls) == {(_TOL, _NMIN), (_COARSE_TOL, 8)}
+    assert ROW_MEMO.calls[(_TOL, _NMIN)][0].shape == (A.size, 6)
+    # another thread has its own (empty) memo and computes the same bits
+    seen = {}
+
+    def work():
+        seen["start"] = dict(ROW_MEMO.calls)
+        seen["branch"] = branch(u, A, theta)
+
+    t = threading.Thread(target=work)
+    t.start()
+    t.join()
+    assert seen["start"] == {}
+    np.testing.assert_array_equal(bits(seen["branch"]), bits(exact))
+    # calls beyond max_rows are not kept (the previous memo stays)
+    ROW_MEMO.max_rows = 2
+    branch(u, A * 1.1, theta)
+    np.testing.assert_array_equal(ROW_MEMO.calls[(_TOL, _NMIN)][0][:, 0].view(float), A)
+    assert np.all(np.isfinite(rough))
 
 
 def _child_branch(u, A, theta):
-    """In a worker: the cache it starts with (forked: emptied) and the branch it computes."""
-    start = len(STEADY_CACHE)
+    """In a worker: what it starts with (forked: emptied) and the branch it computes."""
+    start = len(RESPONSE_CACHE), len(ROW_MEMO.calls)
     return start, branch(u, A, theta)
 
 
 @pytest.mark.parametrize("method", ["fork", "spawn"])
-def test_cache_in_worker_processes(cache, method):
+def test_cache_in_worker_processes(kept, method):
     if method not in multiprocessing.get_all_start_methods():
         pytest.skip(f"no {method} start method here")
     A, theta = draws(3, 13)
     u = np.tile(np.linspace(-1.0, 1.0, 8), (A.size, 1))
     here = branch(u, A, theta)
-    assert len(cache) == A.size
+    assert len(kept) == A.size and ROW_MEMO.calls
     with multiprocessing.get_context(method).Pool(1) as pool:
         start, there = pool.apply(_child_branch, (u, A, theta))
-    assert start == 0
+    assert start == (0, 0)
     np.testing.assert_array_equal(bits(there), bits(here))

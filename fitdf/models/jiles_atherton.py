@@ -1,4 +1,4 @@
-"""Jiles-Atherton model (Jiles & Atherton 1986) in winding units, steady loops by integration.
+"""Jiles-Atherton model (Jiles & Atherton 1986) in winding units, steady loops in closed form.
 
 Jiles and Atherton write the magnetisation as an irreversible (pinned-wall) part and a
 reversible (wall-bowing) part::
@@ -48,16 +48,33 @@ After a reversal ``chi_irr`` stays 0 until ``M_an`` catches up with ``M_irr`` (t
 fix of negative susceptibility), and for ``zeta <= 1`` the slope ``dM/dH`` is positive and
 finite (at most ``(M_s/3a)/(1 - zeta)`` below 1), so the singular, negative or "avalanche"
 slopes of the H-form cannot occur (for ``zeta > 1``, outside the bounds, a fold of
-``H(H_e)`` becomes a vertical jump). Over each step ``M_an`` is replaced by its cubic
-Hermite interpolant and the irreversible equation, a linear relaxation of length ``k``, is
-integrated exactly for it (an exponential integrator), with steps that keep the error of
-``M`` below ``tol lambda_s``; the branch is kept as its nodes
-``(H_e, M, dM/dH_e)``. The symmetric steady loop of peak ``A`` is the fixed point of the
-half cycle, found by a safeguarded secant iteration. The describing function,
+``H(H_e)`` becomes a vertical jump).
+
+*Steady loops.* On a rising branch, once relaxing, the irreversible equation is linear in
+``M_irr`` with a forcing ``M_an(H_e)`` that does not depend on the loop. With the forced
+response ``Q`` (its solution from ``H_e = -infinity``, ``dQ/dH_e = (M_an - Q)/k``),
+the rising branch from ``M_irr = mi0`` at its bottom ``H_e = h0`` is frozen until ``M_an``
+reaches ``mi0`` at ``h_s``, then ``M_irr = Q(H_e) + (mi0 - Q(h_s)) e^(-(H_e - h_s)/k)``.
+The symmetric steady loop of peak ``A`` (the limit of repeated cycling between ``-A`` and
+``A``) has its tip at ``H_e = -h0`` and ``M_irr(-h0) = -mi0``: one equation in ``mi0``,
+solved by Newton to rounding, with no half cycle integrated (for ``zeta > 1`` the half
+cycle is integrated to its fixed point instead). ``Q`` is tabulated once per ``(lambda_s,
+a, k)`` on nodes in ``H_e / a`` shared by every parameter set (its relaxation integrated
+exactly for the cubic Hermite interpolant of ``M_an``, an exponential integrator, to well
+below ``tol lambda_s``) and kept per process (:class:`~fitdf.models._ja_branch.ResponseCache`),
+so a new amplitude or a new parameter set costs one equation and the branch's nodes. The
+branch is laid out as nodes ``(H_e, M, dM/dH_e)`` (those of the table, plus the switch,
+the tip and shorter steps where the transient ``e^(-(H_e - h_s)/k)`` or a minimum count
+``n_min`` need them), between which it is the cubic Hermite interpolant; steps keep its
+error below ``tol lambda_s``. A loop much narrower than the table's spacing (span below
+``0.01 a``) takes ``M_irr`` from the relaxation integrated directly over the loop, which
+keeps its relative precision. The describing function,
 ``N = (2/(pi A^2)) Int y_up'(x) [sqrt(A^2 - x^2) - j x] dx`` (eqs 2.1, 2.2 integrated by
 parts), is evaluated piece by piece on that branch with a 10-node Gauss-Legendre rule, plus
-a term for each jump; with the default ``tol = 1e-7`` it is within about 1e-6 of ``|N|`` of
-a far finer integration (``benchmarks/bench_ja.py``).
+a term for each jump; with the default ``tol = 1e-7`` it is within about 4e-6 of ``|N|`` of
+a ``tol = 1e-11`` tabulation over realistic parameters (``benchmarks/bench_ja.py``) and
+within 5e-7 of an independent DOP853 integration of the equations at the tests' parameter
+sets.
 
 References
 ----------
@@ -72,12 +89,15 @@ import numpy as np
 from fitdf.models._ja_branch import (
     _T_OF_V,
     _W_OF_V,
-    STEADY_CACHE,
+    ROW_MEMO,
+    _branch_rows,
     _capacity,
-    _df_loop,
-    _eval_rows,
+    _df_rows,
     _flat,
+    _own,
     _table,
+    grid,
+    response_tables,
 )
 from fitdf.models._ja_integrate import (
     _COARSE_NMIN,
@@ -139,17 +159,10 @@ def steady_loop(amplitude, *, lambda_s, a, k, c, zeta, tol=_TOL, n_min=_NMIN, n_
         ``(-x[::-1], -y[::-1])``.
     """
     alpha = float(coupling(lambda_s=lambda_s, a=a, zeta=zeta))
+    th = (float(lambda_s), float(a), float(k), float(c), alpha)
+    tabs, _ = response_tables(*(np.array([v]) for v in th[:3]), tol)
     x, y, _ = _table(
-        float(abs(amplitude)),
-        float(lambda_s),
-        float(a),
-        float(k),
-        float(c),
-        alpha,
-        tol,
-        n_min,
-        _capacity(n_min),
-        n_out,
+        float(abs(amplitude)), th, tol, n_min, _capacity(n_min), grid(tol), tabs[0], n_out
     )
     return x, y
 
@@ -186,10 +199,10 @@ def ja_describing_function(amplitude, *, lambda_s, a, k, c, zeta, tol=_TOL, n_mi
     tol, n_min : float, int
         Step control: cubic-Hermite error per step below ``tol lambda_s``, at least ``n_min``
         steps per branch. Over realistic parameters (``benchmarks/bench_ja.py``) the
-        default ``tol = 1e-7`` is within 1.2e-6 of ``|N|`` of a ``tol = 1e-11``
-        refinement (``tol = 1e-8``: 6e-7, 1.4x slower); ``tol = 1e-6, n_min = 12`` is
-        ~1.3x faster again within 1.4e-5 (``Im N``: 9e-5 of ``|Im N|``); all are far
-        worse at the box's corners (nearly rectangular loops, ``A/a ~ 5e6``).
+        default ``tol = 1e-7`` is within 4e-6 of ``|N|`` of a ``tol = 1e-11`` refinement
+        (1.1e-6 about the report's fits; ``tol = 1e-8``: 7e-7, 1.4x slower); ``tol = 1e-6,
+        n_min = 12`` is ~1.5x faster again within 4e-5 (``Im N``: 9e-5 of ``|Im N|``); all
+        are far worse at the box's corners (nearly rectangular loops, ``A/a ~ 5e6``).
 
     Returns
     -------
@@ -201,27 +214,9 @@ def ja_describing_function(amplitude, *, lambda_s, a, k, c, zeta, tol=_TOL, n_mi
     alpha = coupling(lambda_s=lambda_s, a=a, zeta=zeta)
     shape, (A, lam, a_, k_, c_, al) = _flat(amplitude, lambda_s, a, k, c, alpha)
     out = np.empty(A.size, dtype=complex)
-    args = (np.abs(A), lam, a_, k_, c_, al)
-    try:
-        _df_loop(*args, tol, n_min, _capacity(n_min), _T_OF_V, _W_OF_V, out)
-    except ZeroDivisionError:
-        # An extreme corner of the box (amplitudes a root finder probes decades away) can
-        # divide by zero in the compiled loop: those points get NaN, the others their N.
-        for i in range(A.size):
-            one = np.empty(1, dtype=complex)
-            try:
-                _df_loop(
-                    *(x[i : i + 1] for x in args),
-                    tol,
-                    n_min,
-                    _capacity(n_min),
-                    _T_OF_V,
-                    _W_OF_V,
-                    one,
-                )
-                out[i] = one[0]
-            except ZeroDivisionError:
-                out[i] = np.nan
+    tabs, row = response_tables(lam, a_, k_, tol)
+    P = (np.abs(A), lam, a_, k_, c_, al)
+    _df_rows(P, tol, n_min, _capacity(n_min), grid(tol), tabs, row, _T_OF_V, _W_OF_V, out)
     return out.reshape(shape)
 
 
@@ -315,19 +310,21 @@ class JilesAtherton(HysteresisModel):
         """Rising branch of the steady loop (the parametric cubic of its nodes); broadcasts.
 
         One steady loop is computed per distinct broadcast ``(amplitude, theta)`` element and
-        evaluated (Newton inversion of ``H(H_e)``) at all the ``x`` that share it. The loops
-        of recent rows are kept (:class:`~fitdf.models._ja_branch.SteadyCache`, per process,
-        bounded): the ``voltage`` chain asks for the same rows at new ``x`` several times in
-        a row, and a kept loop gives the same bits as a new solve.
+        evaluated (Newton inversion of ``H(H_e)``) at all the ``x`` that share it, in one
+        compiled call. The forced responses of recent parameter sets are kept
+        (:class:`~fitdf.models._ja_branch.ResponseCache`), and the nodes of the previous
+        call's rows (:class:`~fitdf.models._ja_branch.RowMemo`: the ``voltage`` chain asks
+        for the same rows at new ``x`` in consecutive calls); both give the bits a new solve
+        would, so results do not depend on what ran before.
         """
         return _steady_branch(x, amplitude, lambda_s, a, k, c, zeta, _TOL, _NMIN)
 
     @classmethod
     def rough_branch(cls, x, amplitude, frequency=0.0, *, lambda_s, a, k, c, zeta):
-        """The branch of the coarse tabulation alone (``tol = 1e-5``, 8 steps at least, one
-        secant stage, closure 1e-6 ``lambda_s``): within 4e-5 ``lambda_s`` of the brute-force
-        loop where :meth:`ascending_branch` is within 4e-7 (tests), for about a third of the cost
-        (12 against 33 us a loop on the rows of a Table B.1 ``voltage`` predict)."""
+        """The branch on the coarse tabulation (``tol = 1e-5``, 8 steps at least): the same
+        steady loop (the forced response on coarser nodes), within 3e-5 ``lambda_s`` of the
+        brute-force loop where :meth:`ascending_branch` is within 4e-7 (tests), on a third
+        of the nodes (the ``voltage`` chain's initial guess and coarse stage)."""
         return _steady_branch(x, amplitude, lambda_s, a, k, c, zeta, _COARSE_TOL, _COARSE_NMIN)
 
     @classmethod
@@ -338,20 +335,47 @@ class JilesAtherton(HysteresisModel):
 
 
 def _steady_branch(x, amplitude, lambda_s, a, k, c, zeta, tol, n_min):
-    """:meth:`JilesAtherton.ascending_branch` with the tabulation ``(tol, n_min)``."""
-    alpha = coupling(lambda_s=lambda_s, a=a, zeta=zeta)
-    pshape = np.broadcast_shapes(*(np.shape(v) for v in (amplitude, lambda_s, a, k, c, alpha)))
-    full = np.broadcast_shapes(np.shape(x), pshape)
-    _, params = _flat(amplitude, lambda_s, a, k, c, alpha)
-    owner = np.broadcast_to(np.arange(int(np.prod(pshape))).reshape(pshape), full).reshape(-1)
-    xs = np.broadcast_to(np.asarray(x, dtype=float), full).reshape(-1)
-    order = np.argsort(owner, kind="stable")
-    index = np.searchsorted(owner[order], np.arange(params[0].size + 1))
-    A, lam, a_, k_, c_, al = params
+    """:meth:`JilesAtherton.ascending_branch` with the tabulation ``(tol, n_min)``.
+
+    Written for a small fixed cost per call (the ``voltage`` chain's root search calls it on
+    a handful of points at a time): NumPy only where shapes need it.
+    """
+    values = [np.asarray(v, dtype=float) for v in (amplitude, lambda_s, a, k, c, zeta)]
+    x = np.asarray(x, dtype=float)
+    pshape = np.broadcast_shapes(*(v.shape for v in values))
+    full = pshape if x.shape == pshape else np.broadcast_shapes(x.shape, pshape)
+    A, lam, a_, k_, c_, z_ = (
+        _own(v if v.shape == pshape else np.broadcast_to(v, pshape)) for v in values
+    )
     A = np.abs(A)
-    buf, off = STEADY_CACHE.branches(A, lam, a_, k_, c_, al, tol, n_min)
+    al = coupling(lambda_s=lam, a=a_, zeta=z_)
+    padded = (1,) * (len(full) - len(pshape)) + tuple(pshape)
+    lead = len(padded)
+    while lead and padded[lead - 1] == 1:
+        lead -= 1
+    order = None
+    if padded[:lead] == full[:lead]:  # each row's inputs are one block of the flat inputs
+        size = 1
+        for n in full[lead:]:
+            size *= n
+        index = np.arange(0, (A.size + 1) * size, size)
+        xs = _own(x if x.shape == full else np.broadcast_to(x, full))
+    else:
+        owner = np.broadcast_to(np.arange(A.size).reshape(pshape), full).reshape(-1)
+        order = np.argsort(owner, kind="stable")
+        index = np.searchsorted(owner[order], np.arange(A.size + 1))
+        xs = np.broadcast_to(x, full).reshape(-1)[order]
+    tabs, row = response_tables(lam, a_, k_, tol)
     out = np.empty(xs.size)
-    _eval_rows(buf, off, A, al, np.ascontiguousarray(xs[order]), index, out)
+    keep = A.size <= ROW_MEMO.max_rows
+    memo = ROW_MEMO.get(tol, n_min)
+    P = (A, lam, a_, k_, c_, al)
+    G = grid(tol)
+    memo = _branch_rows(P, tol, n_min, _capacity(n_min), G, tabs, row, xs, index, out, memo, keep)
+    if keep:
+        ROW_MEMO.keep(tol, n_min, memo)
+    if order is None:
+        return out.reshape(full)
     result = np.empty_like(out)
     result[order] = out
     return result.reshape(full)
