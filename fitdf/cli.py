@@ -40,9 +40,9 @@ EXIT_INTERNAL = 1
 CHAIN_CHOICES = ("direct", "winding", "voltage", "dynamic")
 DEFAULT_CHAIN = "voltage"
 #: ``fitdf.inference.ranking.METHOD_CHOICES`` and ``RANK_COLUMNS``.
-METHOD_CHOICES = ("lsq", "mcmc", "both")
+METHOD_CHOICES = ("lsq", "mcmc", "nested", "both")
 #: How the text names a fit's method.
-METHOD_NAMES = {"lsq": "least squares", "mcmc": "MCMC"}
+METHOD_NAMES = {"lsq": "least squares", "mcmc": "MCMC", "nested": "nested sampling"}
 RANK_CHOICES = (
     "rms_complex",
     "rms_magnitude",
@@ -54,6 +54,7 @@ RANK_CHOICES = (
     "waic",
     "cv_rms_complex",
     "n_params",
+    "log_evidence",
 )
 #: How a dimensionless unit is printed (``fitdf.params.DIMENSIONLESS``).
 DIMENSIONLESS_UNIT = "-"
@@ -291,6 +292,10 @@ WIDE_COLUMNS = (
     "bic",
     "looic",
     "cv_rms_complex",
+    "log_evidence",
+    "log_evidence_error",
+    "log_bayes_factor_next",
+    "bayes_factor_verdict",
     "indistinguishable_from",
 )
 #: The ranking's columns by default: ``chain`` and ``method`` only when they differ between
@@ -305,6 +310,7 @@ BRIEF_COLUMNS = (
     "rms_complex",
     "aicc",
     "cv_rms_complex",
+    "log_evidence",
 )
 #: What each column of the ranking means (the legend under the default table).
 COLUMN_MEANINGS = {
@@ -318,6 +324,8 @@ COLUMN_MEANINGS = {
     "looic": "PSIS leave-one-out information criterion (MCMC; lower is better)",
     "waic": "widely applicable information criterion (MCMC; lower is better)",
     "cv_rms_complex": "rms_complex of each frequency predicted from a fit to the others",
+    "log_evidence": "ln of the Bayesian evidence (nested sampling; higher is better)",
+    "log_bayes_factor_next": "ln B over the next law by evidence",
 }
 
 
@@ -503,6 +511,7 @@ def _ranking_text(table, rank_by: str = "rms_complex", wide: bool = False) -> st
     tie_rule = {
         "lsq": "AICc within 2",
         "mcmc": "elpd_loo within twice its standard error",
+        "nested": "a Bayes factor below e (2 ln B < 2)",
     }
     rule = "; ".join(f"{METHOD_NAMES[m]}: {tie_rule[m]}" for m in sorted(methods))
     legend = [f"{c}: {COLUMN_MEANINGS[c]}" for c in cols if c in COLUMN_MEANINGS]
@@ -694,6 +703,27 @@ def _print_fit(comparison, args, *, brief: bool) -> None:
         print("\nBest model:")
         print(best.summary())
         print(_material_text(best))
+    nested = [r for r in results if r.method == "nested"]
+    if nested:
+        print(
+            "\nNested-sampling checks (converged: >= 400 effective draws, evidence error <= 0.3):"
+        )
+        rows = []
+        for r in nested:
+            d = r.diagnostics
+            rows.append(
+                [
+                    r.model,
+                    r.chain,
+                    "yes" if d["converged"] else "NO",
+                    f"{d['log_evidence']:.2f} +- {d['log_evidence_error']:.2f}",
+                    f"{d['n_effective']:.0f}",
+                    f"{d['n_likelihood_evaluations']:.0f}",
+                ]
+            )
+        headers = ["model", "chain", "converged", "ln evidence", "eff. draws", "evaluations"]
+        for line in _table_text(headers, rows, left=("model", "chain", "converged")):
+            print("  " + line)
     mcmc = [r for r in results if r.method == "mcmc"]
     if mcmc:
         print("\nMCMC checks (converged: 50 autocorrelation times, R-hat < 1.01, bulk ESS >= 400):")
@@ -744,7 +774,9 @@ def _material_text(result) -> str:
 def cmd_report(args):
     from fitdf.report.build import ReportSettings, generate_report, job_cache
 
-    settings = ReportSettings.for_run(args.quick, scheduler=args.scheduler)
+    settings = ReportSettings.for_run(
+        args.quick, full=args.full, scheduler=args.scheduler, compare_chain=args.compare_chain
+    )
     cache = None if args.no_cache else job_cache(args.cache, settings, args.seed)
     # kept on ``args``: after Ctrl-C, the one line says what the cache kept
     args.job_caches = [] if cache is None else [cache]
@@ -955,7 +987,13 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="print every column of the ranking (default: the main ones, in 100 columns)",
     )
-    sp.add_argument("--method", choices=METHOD_CHOICES, default="lsq")
+    sp.add_argument(
+        "--method",
+        choices=METHOD_CHOICES,
+        default="lsq",
+        help="lsq: least squares (default); nested: the posterior and its evidence by nested "
+        "sampling (nautilus); mcmc: the posterior by emcee; both: lsq and nested",
+    )
     sp.add_argument("--models", nargs="+", metavar="MODEL", help="models to fit (default: all)")
     sp.add_argument(
         "--chain",
@@ -1027,7 +1065,12 @@ def build_parser() -> argparse.ArgumentParser:
         "report",
         cmd_report,
         "fit every model to every core and write the comparison report",
-        ["fitdf report", "fitdf report --out /tmp/myreport --seed 3", "fitdf report --quick"],
+        [
+            "fitdf report",
+            "fitdf report --quick",
+            "fitdf report --full --out /tmp/full-report",
+            "fitdf report --compare-chain winding --seed 3",
+        ],
         notes="\n\nThe report prints no JSON: its machine-readable output is results.json in the\n"
         "output folder (schemas/results.schema.json), beside README.md, index.html and figures/.",
         json=False,
@@ -1036,7 +1079,26 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", default="reports", metavar="DIR", help="output folder (default: reports)"
     )
     sp.add_argument("--seed", type=seed_value, default=0, help=SEED_HELP)
-    sp.add_argument("--quick", action="store_true", help="least squares only, for a fast look")
+    run = sp.add_mutually_exclusive_group()
+    run.add_argument(
+        "--quick",
+        action="store_true",
+        help="least squares only, no posteriors and no cross-validation: a fast look",
+    )
+    run.add_argument(
+        "--full",
+        action="store_true",
+        help="the posteriors and evidences of the best three laws of every block, and the "
+        "evidence's sensitivity to the prior (the default samples the best law of each core)",
+    )
+    sp.add_argument(
+        "--compare-chain",
+        choices=("winding",),
+        default=None,
+        metavar="CHAIN",
+        help="also refit every law through this approximate chain (winding: the "
+        "sinusoidal-current approximation) and show how far it moves the results",
+    )
     sp.add_argument(
         "--scheduler",
         default=os.environ.get("FITDF_SCHEDULER") or None,
@@ -1136,7 +1198,9 @@ def _validate(args):
         getattr(args, "rank_by", None) in ("looic", "waic")
         and getattr(args, "method", "mcmc") == "lsq"
     ):
-        raise OptionError(f"--rank-by {args.rank_by} needs --method mcmc or both")
+        raise OptionError(f"--rank-by {args.rank_by} needs --method nested, mcmc or both")
+    if getattr(args, "rank_by", None) == "log_evidence" and args.method not in ("nested", "both"):
+        raise OptionError("--rank-by log_evidence needs --method nested or both")
 
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports it

@@ -18,7 +18,7 @@ from importlib import metadata
 import llvmlite.binding as llvm
 
 # The libraries whose rounding reaches a fitted number.
-_STACK = ("numpy", "scipy", "numba", "lmfit", "emcee")
+_STACK = ("numpy", "scipy", "numba", "lmfit", "emcee", "nautilus-sampler", "scikit-learn")
 
 
 def _cpu_model() -> str:

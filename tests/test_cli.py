@@ -180,6 +180,39 @@ def test_fit_prints_ranking_and_json():
         assert f["metrics"]["rms_complex"] > 0 and f["parameters"]
 
 
+@pytest.mark.slow  # about a minute of nested sampling on 2 cores
+def test_fit_by_nested_sampling_prints_its_checks_and_json():
+    """``--method nested``: the ranking by evidence, the nested-sampling checks and the JSON
+    with the evidence, its error and the prior, valid against the fit schema."""
+    args = ("fit", "B.1", "--models", "rayleigh", "constant_width", "--chain", "winding")
+    args += ("--method", "nested", "--no-cv", "--rank-by", "log_evidence", *ONE_PROCESS)
+    p = run(*args, "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert "nested sampling" in p.stdout and "log_evidence" in p.stdout
+    assert_fits_in_100_columns(p.stdout)
+    checks = p.stdout.split("Nested-sampling checks")[1].splitlines()
+    assert "converged: >= 400 effective draws, evidence error <= 0.3" in checks[0]
+    rows = {line.split()[0]: line.split() for line in checks[2:4]}
+    assert set(rows) == {"rayleigh", "constant_width"}
+    j = json.loads(run_here(*args, "--json").stdout)
+    from jsonschema import Draft202012Validator
+
+    schema = json.loads((Path(CHECKOUT) / "schemas" / "fitdf-fit.schema.json").read_text())
+    assert not list(Draft202012Validator(schema).iter_errors(j))
+    evidence = [r["log_evidence"] for r in j["ranking"]]
+    assert evidence == sorted(evidence, reverse=True)  # ranked by the evidence
+    for f in j["fits"]:
+        d = f["diagnostics"]
+        assert f["method"] == "nested" and d["converged"], d
+        assert d["n_effective"] >= 400 and d["log_evidence_error"] <= 0.3
+        assert f["info"]["prior"]["r_series"]["distribution"].startswith("log-normal")
+        shown = rows[f["model"]]
+        assert shown[3] == f"{d['log_evidence']:.2f}" and shown[5] == f"{d['log_evidence_error']:.2f}"
+    top = j["ranking"][0]
+    assert top["log_bayes_factor_next"] == pytest.approx(evidence[0] - evidence[1])
+    assert top["bayes_factor_verdict"]
+
+
 @pytest.mark.slow  # 30 s of fitting on 2 cores (the cheaper test above runs by default)
 def test_the_default_fit_output_fits_in_100_columns(tmp_path):
     """``fitdf fit B.3 --method lsq --no-cv`` as a user types it: every line within 100
@@ -299,6 +332,8 @@ def test_fit_help_points_to_the_csv_format():
         (("fit", "B.3", "--method", "magic"), ["magic"]),
         (("fit", "B.3", "--steps", "10"), ["--steps"]),
         (("fit", "B.3", "--rank-by", "looic"), ["looic", "mcmc"]),
+        (("fit", "B.3", "--rank-by", "log_evidence"), ["log_evidence", "nested"]),
+        (("report", "--quick", "--full"), ["--full", "--quick"]),
         (("fit", "B.3", "--source-impedance", "50"), ["50"]),
         (("fit", "B.3", "--seed", "abc"), ["abc"]),
         (("audit", "nosuch.csv"), ["nosuch.csv"]),

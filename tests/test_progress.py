@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -199,18 +200,20 @@ def test_a_quick_run_names_no_mcmc():
     labels = phase_labels(quick)
     assert labels == (
         "least squares",
-        "winding refits, rate-dependent refits, cross-impedance, limit cycles",
+        "rate-dependent refits, cross-impedance, limit cycles",
         "figures",
     )
     phases, what = _plan(quick)
     assert [p.label for p in phases] == list(labels)
     text = " ".join(labels) + " ".join(what)
-    assert "MCMC" not in text and "cross-validation" not in text
-    full = phase_labels(ReportSettings.for_run())
+    assert "MCMC" not in text and "nested" not in text and "cross-validation" not in text
+    full = phase_labels(ReportSettings.for_run(full=True, compare_chain="winding"))
     assert full[1] == (
-        "MCMC, cross-validation, winding refits, rate-dependent refits, cross-impedance, "
-        "limit cycles"
+        "nested sampling, cross-validation, winding refits, rate-dependent refits, "
+        "cross-impedance, limit cycles"
     )
+    emcee = replace(ReportSettings.for_run(), sampler="emcee")
+    assert phase_labels(emcee)[1].startswith("MCMC, ")
     bare = ReportSettings(
         mcmc_top=0,
         cv_top=0,

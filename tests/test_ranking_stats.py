@@ -31,7 +31,12 @@ from scipy import stats
 from fitdf.errors import OptionError
 from fitdf.inference.mcmc import _arviz_diagnostics
 from fitdf.inference.metrics import information_criteria, phase_difference_deg, residual_metrics
-from fitdf.inference.ranking import _elpd_data, best_by_aicc, ranking_table
+from fitdf.inference.ranking import (
+    _elpd_data,
+    bayes_factor_scale,
+    best_by_aicc,
+    ranking_table,
+)
 
 
 def stand_in(model, aicc, *, method="lsq", rms=0.01, k=3, n=20, diagnostics=None, **metrics):
@@ -253,8 +258,9 @@ def test_cross_validation_and_warnings_columns():
 TABLE_COLUMNS = [
     "rank", "model", "chain", "method", "n_params", "n_points", "rms_complex", "rms_magnitude",
     "rms_phase_deg", "redchi", "aicc", "bic", "looic", "looic_se", "waic", "cv_rms_complex",
-    "warnings", "delta_aicc", "aicc_weight", "indistinguishable_from", "elpd_loo_diff",
-    "elpd_loo_dse", "loo_weight",
+    "log_evidence", "log_evidence_error", "warnings", "delta_aicc", "aicc_weight",
+    "indistinguishable_from", "elpd_loo_diff", "elpd_loo_dse", "loo_weight",
+    "log_bayes_factor_next", "log_bayes_factor_next_error", "bayes_factor_verdict",
 ]  # fmt: skip
 
 
@@ -263,7 +269,16 @@ def test_table_columns_and_empty_mcmc_columns_are_float_nan():
     # the columns without a value are float columns of NaN (not None), whatever the methods
     t = ranking_table([stand_in("a", 10.0), stand_in("b", 11.0)])
     assert list(t.columns) == TABLE_COLUMNS
-    for col in ("looic", "looic_se", "waic", "cv_rms_complex", "elpd_loo_diff", "loo_weight"):
+    for col in (
+        "looic",
+        "looic_se",
+        "waic",
+        "cv_rms_complex",
+        "elpd_loo_diff",
+        "loo_weight",
+        "log_evidence",
+        "log_bayes_factor_next",
+    ):
         assert t[col].dtype == np.float64, col
         assert np.isnan(t[col].to_numpy()).all(), col
     with_cv = ranking_table([stand_in("a", 10.0)], cv={0: {"cv_rms_complex": 0.05}})
@@ -537,3 +552,38 @@ def test_loo_tie_needs_a_difference_below_two_standard_errors():
     assert t.loc["c", "elpd_loo_diff"] == 1.875
     assert t.loc["c", "elpd_loo_dse"] == pytest.approx(math.sqrt(0.88671875), rel=1e-12)
     assert t.loc["a", "indistinguishable_from"] == "c/winding"
+
+
+def test_bayes_factors_between_evidence_neighbours_on_the_kass_raftery_scale():
+    """ln B of each posterior over the next by evidence, its error in quadrature, the verdict on
+    2 ln B (Kass & Raftery 1995: < 2 bare mention, 2-6 positive, 6-10 strong, > 10 very
+    strong), and ties where 2 ln B < 2."""
+    assert [bayes_factor_scale(x) for x in (0.0, 0.99, 1.0, 2.99, 3.0, 4.99, 5.0)] == [
+        "not worth more than a bare mention",
+        "not worth more than a bare mention",
+        "positive",
+        "positive",
+        "strong",
+        "strong",
+        "very strong",
+    ]
+    rows = [
+        stand_in(
+            name,
+            10.0,
+            method="nested",
+            diagnostics={"log_evidence": log_z, "log_evidence_error": err},
+        )
+        for name, log_z, err in (("a", -10.0, 0.1), ("b", -13.5, 0.2), ("c", -14.0, 0.2))
+    ]
+    t = ranking_table(rows, rank_by="log_evidence").set_index("model")
+    assert list(t.index) == ["a", "b", "c"]
+    assert t.loc["a", "log_bayes_factor_next"] == pytest.approx(3.5)
+    assert t.loc["a", "log_bayes_factor_next_error"] == pytest.approx(math.hypot(0.1, 0.2))
+    assert t.loc["a", "bayes_factor_verdict"] == "strong"  # 2 ln B = 7
+    assert t.loc["b", "bayes_factor_verdict"] == "not worth more than a bare mention"  # 1.0
+    assert (
+        np.isnan(t.loc["c", "log_bayes_factor_next"]) and t.loc["c", "bayes_factor_verdict"] == ""
+    )
+    assert t.loc["b", "indistinguishable_from"].startswith("c/")  # 2 ln B = 1
+    assert t.loc["a", "indistinguishable_from"] == ""

@@ -233,18 +233,21 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
         ):
             assert isinstance(row[metric], float), (key, metric)
         assert rec["ranking_mcmc"][0]["looic"] is not None
-        diag = rec["fits_mcmc"]["proportional_width"]["diagnostics"]
+        assert rec["ranking_mcmc"][0]["log_evidence"] is not None
+        post = rec["fits_mcmc"]["proportional_width"]
+        assert post["method"] == "nested"
+        diag = post["diagnostics"]
         assert {
-            "tau_max",
-            "steps_over_tau",
-            "rhat_max",
-            "ess_bulk_min",
-            "acceptance_mean",
+            "log_evidence",
+            "log_evidence_error",
+            "n_effective",
+            "n_likelihood_evaluations",
             "converged",
-            "steps_needed",
-            "pilot_rounds",
         } <= set(diag)
-        assert len(diag["pilot_rounds"]) >= 2 and diag["max_steps"] == TINY.max_steps
+        assert diag["n_likelihood_evaluations"] <= TINY.nested_max_evaluations
+        # the prior, which decides the evidence, in physical units
+        assert post["prior"]["r_series"]["distribution"].startswith("log-normal")
+        assert post["prior"]["k"]["unit"] == "H" and len(post["prior"]["k"]["bounds"]) == 2
         assert rec["fits_lsq"]["proportional_width"]["parameters"]
         assert rec["data_summary"]["rows_used"] == len(
             rec["fits_lsq"]["proportional_width"]["rows"]["input_v"]
@@ -271,7 +274,7 @@ def test_markdown_sections(tiny_report, tiny_results):
         "## Summary",
         "### Ranking",
         "### Parameters",
-        "### MCMC diagnostics",
+        "### Posteriors",
         "## Cross-impedance prediction",
         "## Limit cycles (Tables 5.1, 5.2)",
         "## Audit of the printed tables (Appendix B)",
@@ -636,7 +639,10 @@ def test_findings_open_with_a_conclusion_from_the_numbers():
             if other.strip():
                 assert f"`{other.split('/')[0].strip()}`" in text
     chains = [f["diagnostics"]["converged"] for rec in blocks for f in rec["fits_mcmc"].values()]
-    assert f"{chains.count(False)} of {len(chains)} MCMC chains did not converge" in text
+    if all(chains):
+        assert f"All {len(chains)} posteriors converged." in text
+    else:
+        assert f"{chains.count(False)} of {len(chains)} posteriors did not converge" in text
     checks = [c for rec in blocks for c in rec["fits_lsq"][rec["order_lsq"][0]]["appendix_a_check"]]
     outside = sum(not c["inside"] for c in checks)
     assert f"{outside} of the {len(checks)} material constants of the best fits lie outside" in text
@@ -654,7 +660,7 @@ def test_the_tiny_report_concludes_and_names_its_law(tiny_report, tiny_results):
     label = f"{title} `proportional_width`"
     assert text.startswith(f"Only {label} was fitted here, to Permalloy")
     assert 3 <= len(_sentences(text)) <= 6
-    assert "2 of 2 MCMC chains did not converge" in text  # 15-step chains
+    assert "All 2 posteriors converged." in text  # nested sampling meets its rule here
     # laws named by title and code name in the tables and headings too
     assert f"| {label} |" in md  # the summary and ranking tables
     assert f"**{label}** (least squares, best of this method):" in md
@@ -679,6 +685,6 @@ def test_the_plan_of_a_run_counts_the_jobs_and_figures_it_made(tiny_report, tiny
     phases, what = costs.plan(TINY, models, blocks, lsq, {}, costs.phase_labels(TINY))
     planned = Counter(kind for p in phases for kind, _ in p.planned)
     ran = Counter(costs.job_kind(k) for k in tiny_results["timing"]["jobs_s"])
-    assert planned == ran and ran["mcmc"] == 2 and ran["figures"] == 4
+    assert planned == ran and ran["nested"] == 2 and ran["figures"] == 4
     pngs = list((tiny_report / "figures").rglob("*.png"))
     assert what[-1] == f"up to {len(pngs)} figures"  # every block's best law was sampled

@@ -22,6 +22,8 @@ DF is ``(2/pi) int e (sin + j cos) / V`` over the half period. For Rayleigh the 
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import warnings
 
 import numba
@@ -719,3 +721,38 @@ def test_rejects_bad_inputs():
         VoltageChain.predict("rayleigh", [1.0], [3.0], [-1.0], PARAMS["rayleigh"], [R_WINDING, 1.0])
     with pytest.raises(ModelError):
         VoltageChain.predict("rayleigh", [1.0], [0.0], [0.0], PARAMS["rayleigh"], [R_WINDING, 1.0])
+
+
+def test_the_last_step_of_a_half_period_ends_when_it_cannot_be_shortened():
+    """A Jiles-Atherton branch from the Deltamax joint fit's screen (V 1 V, R 610 ohm, 3 c/s):
+    the half period's last step, cut to end at pi + phi0, came out a rounding above the
+    smallest step and was shortened to the smallest step, cut again, forever. Run in a
+    subprocess so that a regression fails by its timeout instead of hanging the suite."""
+    code = """
+import numpy as np
+from fitdf.chains._periodic import N_OUT, half_periods
+a = 0.0016387598460849881
+x = np.linspace(-a, a, 24)[None, :]
+B = np.array([[
+        -0.016654677647426157, -0.016654628914810746, -0.016654569682018863,
+        -0.016654496341361475, -0.016654404778331577, -0.016654284305339145,
+        -0.016654117595282913, -0.016653881423905385, -0.016653508188905212,
+        -0.01665283846108356, -0.016651273948517637, -0.01664188610539339,
+        -0.006415660333712011, 0.003130663429325948, 0.008733030562571138,
+        0.012025474684545154, 0.013958766391679691, 0.015099245524965287, 0.015776757383793576,
+        0.016158458053489796, 0.016389208861046434, 0.016528480221964688, 0.01660809896883581,
+        0.016654677647426157,
+]])
+out = np.empty((1, N_OUT))
+half_periods(x, B, np.array([1.0]), np.array([610.1995357777695]),
+             np.array([18.84955592153876]), np.array([-1.56311481486555]), 32,
+             0.2945243112740431, out)
+print(out[0, 0], out[0, 3])
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    i_max, steps = map(float, done.stdout.split())
+    # the current reaches the table's tip (R a / V = 1.0000: the source's peak current) in
+    # about the regular 32 steps of a half period plus the shortened ones near its peak
+    assert i_max == pytest.approx(a_tip := 0.0016387598460849881, rel=1e-3), a_tip
+    assert 32 <= steps <= 200

@@ -377,6 +377,11 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
             c_new = np.cos(th_new)
         v = V * s_new
         a = R
+        # Whether the step can still be shortened. The last step of the half period is cut
+        # to end at ``t_end`` and may exceed ``h_try`` by up to 1e-9 h0: a step asked to be
+        # ``h_min`` can come out a rounding above it, and shortening it again would give
+        # the same step forever.
+        shrinkable = h > h_min * (1.0 + 1e-6)
         # the step's EMF is e = alpha lam_new - beta (used by the rate-dependent step)
         if h_1 == 0.0:  # trapezoidal first step (second order from the turning point)
             a = 0.5 * R
@@ -412,7 +417,7 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
                 # large for the smallest |e|. ``e < 0`` is ``R i_h > v`` (``R g(e) + e`` has
                 # the sign of ``e``): the static path's condition, and the same hold, where
                 # ``e = 0``, ``g = 0`` and ``i_h = v/R`` (or the current already reached).
-                if h > h_min:
+                if shrinkable:
                     h_try = max(0.25 * h, h_min)
                     continue
                 j_new, i_new, lam_new = _hold_peak(x, B, j, j_new, i, lam, v / R, s_ext)
@@ -442,7 +447,7 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
                 # rate of the steps before, overshoots it -- by a current of order
                 # ``|e| / R`` where the cell is nearly flat (the flux stops at a kink into
                 # saturation). Locate the peak to ``h_min``, then hold the current there.
-                if h > h_min:
+                if shrinkable:
                     h_try = max(0.25 * h, h_min)
                     continue
                 j_new, i_new, lam_new = _hold_peak(x, B, j, j_new, i, lam, v / R, s_ext)
@@ -460,7 +465,7 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
                 + lam * (h - t0) * (h + h_1) / (t0 * -h_1)
             )
             move += LTE_WEIGHT * abs(lam_new - pred) * (i_new - i) / (lam_new - lam) * inv_i
-        if move > dsig and h > h_min and not jump:
+        if move > dsig and shrinkable and not jump:
             h_try = max(h * max(0.2, 0.8 * dsig / move), h_min)
             continue  # reject; the pointer j is unchanged
         if jump:

@@ -9,6 +9,7 @@ from fitdf.errors import OptionError
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
+from fitdf.inference.nested import fit_nested
 from fitdf.inference.problem import FitProblem
 
 __all__ = ["fit", "resolve_data", "resolve_geometry", "METHODS", "DEFAULT_CHAIN"]
@@ -16,7 +17,7 @@ __all__ = ["fit", "resolve_data", "resolve_geometry", "METHODS", "DEFAULT_CHAIN"
 #: The chain of every fit unless another is asked for: the exact voltage-driven circuit.
 DEFAULT_CHAIN = "voltage"
 
-METHODS = ("lsq", "mcmc")
+METHODS = ("lsq", "mcmc", "nested")
 
 
 def fit(
@@ -35,6 +36,7 @@ def fit(
     n_walkers: int | None = None,
     progress: bool = False,
     geometry="auto",
+    nested: dict | None = None,
 ):
     """Fit one model seen through one measurement chain.
 
@@ -47,13 +49,18 @@ def fit(
     chain : {"voltage", "winding", "direct"}
         ``voltage`` (default) is the exact circuit; ``winding`` its sinusoidal-current
         approximation; ``direct`` reads the law's DF without a circuit.
-    method : {"lsq", "mcmc"}
-        "mcmc" runs least squares first and starts the walkers there.
+    method : {"lsq", "mcmc", "nested"}
+        "mcmc" runs least squares first and starts the walkers there; "nested" runs least
+        squares first (its currents start the chain's solver), then nested sampling
+        (:func:`fitdf.inference.nested.fit_nested`): the posterior and the evidence.
     seed : int
         Makes the multi-start and the chain reproducible.
     n_steps, max_steps : int
         MCMC runs a pilot, then at least ``n_steps`` and up to ``max_steps`` until the
         chain has converged (:func:`fitdf.inference.mcmc.is_converged`).
+    nested : dict, optional
+        Options of :func:`~fitdf.inference.nested.fit_nested` (``n_live``,
+        ``max_evaluations``, ...) for ``method="nested"``.
     geometry : "auto", CoreGeometry or None
         The core's turns and dimensions: material bounds, the ``r_series`` prior and the
         material constants of the result (:class:`~fitdf.inference.problem.FitProblem`).
@@ -77,6 +84,8 @@ def fit(
     result = fit_lsq(problem, seed=seed, n_starts=n_starts)
     if method == "lsq":
         return with_material(result)
+    if method == "nested":
+        return with_material(fit_nested(problem, result, seed=seed, **(nested or {})))
     return with_material(
         fit_mcmc(
             problem,

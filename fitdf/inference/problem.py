@@ -231,6 +231,29 @@ class FitProblem:
             warm=self.warm_current,
         )
 
+    def with_box_scaled(self, factor: float, about=None) -> FitProblem:
+        """A copy whose free parameters' boxes are ``factor`` times as wide in internal
+        coordinates (``log10`` for log-scaled parameters: a box of decades), centred on the
+        box's centre, or on ``about`` (an internal vector) kept inside the old box: how a
+        prior's width moves the evidence. The Gaussian priors stay as they are."""
+        lo, hi = self.internal_bounds().T
+        width = (hi - lo) * float(factor)
+        centre = 0.5 * (lo + hi)
+        if about is not None:
+            half = np.minimum(0.5 * width, 0.5 * (hi - lo))
+            centre = np.clip(np.asarray(about, float), lo + half, hi - half)
+        new_lo, new_hi = centre - 0.5 * width, centre + 0.5 * width
+        specs = []
+        for s, a, b in zip(self.specs, new_lo, new_hi):
+            bounds = (float(10.0**a), float(10.0**b)) if s.log else (float(a), float(b))
+            default = min(max(s.default, bounds[0]), bounds[1])
+            specs.append(replace(s, bounds=bounds, default=default))
+        out = copy.copy(self)
+        scaled = {s.name: s for s in specs}
+        out.specs = specs
+        out.all_specs = [scaled.get(s.name, s) for s in self.all_specs]
+        return out
+
     def warm_started(self, internal) -> FitProblem:
         """A copy of this problem whose chain solver starts at the currents of ``internal``.
 

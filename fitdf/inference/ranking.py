@@ -47,6 +47,8 @@ __all__ = [
     "cross_impedance",
     "RANK_COLUMNS",
     "METHOD_CHOICES",
+    "POSTERIOR_METHODS",
+    "bayes_factor_scale",
 ]
 
 #: Columns a ranking can be ordered by, and whether larger is better.
@@ -61,9 +63,30 @@ RANK_COLUMNS = {
     "waic": False,
     "cv_rms_complex": False,
     "n_params": False,
+    "log_evidence": True,
 }
 #: ``method`` choices of :func:`compare` and the fits each one runs.
-METHOD_CHOICES = {"lsq": ("lsq",), "mcmc": ("mcmc",), "both": ("lsq", "mcmc")}
+METHOD_CHOICES = {
+    "lsq": ("lsq",),
+    "mcmc": ("mcmc",),
+    "nested": ("nested",),
+    "both": ("lsq", "nested"),
+}
+#: Methods whose results are posteriors (PSIS-LOO; the evidence for nested sampling).
+POSTERIOR_METHODS = ("mcmc", "nested")
+
+#: Kass and Raftery (J. Am. Stat. Assoc. 90 (1995) 773) on ``2 ln B``: the evidence a Bayes
+#: factor ``B`` gives for the better model, by its upper bounds.
+_KASS_RAFTERY = ((2.0, "not worth more than a bare mention"), (6.0, "positive"), (10.0, "strong"))
+
+
+def bayes_factor_scale(log_bayes_factor: float) -> str:
+    """The Kass-Raftery verdict on a Bayes factor given as ``ln B`` (of the better model over
+    the other, so ``>= 0``): ``2 ln B`` below 2 "not worth more than a bare mention", 2-6
+    "positive", 6-10 "strong", above 10 "very strong" (Kass & Raftery 1995, after Jeffreys
+    1961)."""
+    two = 2.0 * abs(float(log_bayes_factor))
+    return next((label for bound, label in _KASS_RAFTERY if two < bound), "very strong")
 
 
 def best_by_aicc(results):
@@ -207,6 +230,8 @@ def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None)
             "looic_se": m.get("looic_se", np.nan),
             "waic": m.get("waic", np.nan),
             "cv_rms_complex": np.nan,
+            "log_evidence": getattr(r, "diagnostics", {}).get("log_evidence", np.nan),
+            "log_evidence_error": getattr(r, "diagnostics", {}).get("log_evidence_error", np.nan),
             "warnings": len(r.warnings),
         }
         if cv is not None and i in cv:
@@ -221,10 +246,35 @@ def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None)
         table[col] = values
     if rank_by in ("looic", "waic") and table[rank_by].isna().all():
         raise OptionError(f"--rank-by {rank_by} needs MCMC fits (use --method mcmc or both)")
-    table = table.sort_values([rank_by, "aicc"], kind="stable", na_position="last").reset_index(
-        drop=True
-    )
+    if rank_by == "log_evidence" and table[rank_by].isna().all():
+        raise OptionError("--rank-by log_evidence needs nested-sampling fits (--method nested)")
+    key = -table[rank_by] if RANK_COLUMNS[rank_by] else table[rank_by]
+    order = np.lexsort((table["aicc"].to_numpy(), np.nan_to_num(key.to_numpy(), nan=np.inf)))
+    table = table.iloc[order].reset_index(drop=True)
+    table = _bayes_factors(table)
     table.insert(0, "rank", np.arange(1, len(table) + 1))
+    return table
+
+
+def _bayes_factors(table: pd.DataFrame) -> pd.DataFrame:
+    """``log_bayes_factor_next``: ``ln B`` of each row with an evidence over the next row with one
+    in evidence order (its error from the two evidences' errors, added in quadrature), and its
+    Kass-Raftery verdict (:func:`bayes_factor_scale`); NaN and "" elsewhere."""
+    table = table.copy()
+    table["log_bayes_factor_next"] = np.nan
+    table["log_bayes_factor_next_error"] = np.nan
+    table["bayes_factor_verdict"] = ""
+    has = table["log_evidence"].notna()
+    if has.sum() < 2:
+        return table
+    ordered = table[has].sort_values("log_evidence", ascending=False)
+    for (i, a), (_, b) in zip(ordered.iterrows(), list(ordered.iterrows())[1:]):
+        ln_b = a["log_evidence"] - b["log_evidence"]
+        table.loc[i, "log_bayes_factor_next"] = ln_b
+        table.loc[i, "log_bayes_factor_next_error"] = float(
+            np.hypot(a["log_evidence_error"], b["log_evidence_error"])
+        )
+        table.loc[i, "bayes_factor_verdict"] = bayes_factor_scale(ln_b)
     return table
 
 
@@ -235,7 +285,7 @@ def _elpd_data(result):
     ``sqrt(n var)`` of the pointwise values, as :func:`arviz.loo` computes them; these, the
     pointwise values, ``p_loo`` and ``warning`` are all :func:`arviz.compare` reads.
     """
-    if result.method != "mcmc":
+    if result.method not in POSTERIOR_METHODS:
         return None
     loo_i = np.asarray(result.diagnostics.get("pointwise_elpd_loo", []), float)
     if not loo_i.size:
@@ -289,7 +339,12 @@ def _ties(results, table) -> list[str]:
         for j, s in enumerate(results):
             if i == j or r.method != s.method:
                 continue
-            if r.method == "mcmc":
+            if r.method == "nested" and np.isfinite(table.loc[i, "log_evidence"]):
+                # by the evidence: a Bayes factor not worth more than a bare mention
+                d = abs(table.loc[i, "log_evidence"] - table.loc[j, "log_evidence"])
+                if 2.0 * d < _KASS_RAFTERY[0][0]:
+                    ties.append(f"{s.model}/{s.chain}")
+            elif r.method in POSTERIOR_METHODS:
                 pair = (min(i, j), max(i, j))
                 if pair not in loo_ties:
                     loo_ties[pair] = _loo_tie(elpd[i], elpd[j])
@@ -329,12 +384,14 @@ def compare_fits(
 ) -> Comparison:
     """Fit every model (:func:`fit_all`), cross-validate the least-squares fits, rank them.
 
-    ``method`` is "lsq", "mcmc" or "both"; ``runner`` runs the fits and cross-validations
+    ``method`` is a key of :data:`METHOD_CHOICES`: "lsq", "mcmc" (emcee), "nested" (nested
+    sampling: the posterior and the evidence) or "both" (least squares and nested sampling);
+    ``runner`` runs the fits and cross-validations
     (:func:`fit_all`); other keywords go to :func:`fitdf.fit`.
     """
     methods = METHOD_CHOICES.get(method)
     if methods is None:
-        raise OptionError(f"unknown method {method!r}; choose lsq, mcmc or both")
+        raise OptionError(f"unknown method {method!r}; choose {', '.join(METHOD_CHOICES)}")
     done = _fit_jobs(data, models, chains, methods, seed, progress, runner, cross_validation, kw)
     if not cross_validation:
         return Comparison(ranking_table(done, rank_by, None), tuple(done))

@@ -18,7 +18,7 @@ FIT_CAPTION = (
     "one column per frequency and, for a joint fit, a pair of rows per source impedance: black "
     "dots are the rows fitted, grey crosses the rows the audit excluded, and each law's "
     "least-squares curve is a line of its own colour (as in the legend); the shaded bands, when "
-    "MCMC ran, are the best law's posterior band of the curve (68 %, darker, and 95 %)."
+    "a posterior was sampled, are the best law's posterior band of the curve (68 %, darker, and 95 %)."
 )
 LOCI_CAPTION = (
     "-1/DF in the Nyquist plane, one panel per source impedance: dots are the measured rows and "
@@ -38,7 +38,7 @@ CORNER_CAPTION = (
     "diagonal the histogram of each parameter with dashed lines at its 16th, 50th and 84th "
     "percentiles (its title: the median, plus and minus the distance to them); below it the "
     "draws of each pair, contours enclosing 12, 39, 68 and 86 % of them; blue lines and "
-    "squares: the least-squares optimum the chains started from."
+    "squares: the least-squares optimum."
 )
 
 RANK_COLS = [
@@ -175,11 +175,121 @@ def _param_blocks(rec, names):
     return out
 
 
-def _mcmc_blocks(rec, names):
+#: The posterior ranking's columns when nested sampling gave the posteriors.
+EVIDENCE_COLS = [
+    ("rank", "rank"),
+    ("model", "law"),
+    ("n_params", "parameters"),
+    ("rms_complex", "RMS complex"),
+    ("log_evidence", "ln evidence"),
+    ("log_evidence_error", "+-"),
+    ("log_bayes_factor_next", "ln B over the next"),
+    ("bayes_factor_verdict", "verdict"),
+    ("aicc", "AICc"),
+    ("looic", "LOO-IC"),
+    ("indistinguishable_from", "ties"),
+]
+
+
+def _posterior_blocks(rec, names):
+    """The posteriors' diagnostics, by sampler; an unconverged one is listed, not drawn."""
     if not rec["fits_mcmc"]:
+        return [P("No posterior in this configuration (see the report's settings).")]
+    nested = {m: f for m, f in rec["fits_mcmc"].items() if f.get("method") == "nested"}
+    out = _nested_blocks(rec, nested, names) if nested else []
+    if len(nested) < len(rec["fits_mcmc"]):
+        out += _mcmc_blocks(rec, names)
+    elif rec["figures"].get("corner"):
+        out += [
+            IMG(rec["figures"]["corner"], f"corner plot of {rec['order_lsq'][0]} on {rec['key']}"),
+            P(CORNER_CAPTION),
+        ]
+    return out
+
+
+def _nested_blocks(rec, fits, names):
+    rows, unconverged, sensitivity = [], [], []
+    for model, fit in fits.items():
+        d = fit["diagnostics"]
+        rows.append(
+            [
+                law(names, model),
+                d.get("n_likelihood_evaluations"),
+                d.get("n_effective"),
+                f"{fmt(d.get('log_evidence'), 5)} +- {fmt(d.get('log_evidence_error'), 2)}",
+                d.get("converged"),
+            ]
+        )
+        if not d.get("converged"):
+            unconverged.append(
+                f"{law(names, model)}: {fmt(d.get('n_effective'), 3)} effective draws (400 "
+                f"needed) and an evidence error of {fmt(d.get('log_evidence_error'), 2)} (0.3 at "
+                f"most) after {fmt(d.get('n_likelihood_evaluations'), 6)} evaluations, the "
+                "report's limit: its band, corner plot and intervals are not drawn as results"
+            )
+        for box in (d.get("prior_sensitivity") or {}).get("boxes") or []:
+            sensitivity.append(
+                [
+                    law(names, model),
+                    box["factor"],
+                    f"{fmt(box['log_evidence'], 5)} +- {fmt(box['log_evidence_error'], 2)}",
+                    box["shift"],
+                ]
+            )
+    out = [
+        TABLE(["law", "evaluations", "effective draws", "ln evidence", "converged"], rows),
+        P(
+            "Nested sampling (nautilus): converged means at least 400 effective draws (Kish) and an "
+            "evidence error of at most 0.3. The prior decides the evidence: each parameter's is "
+            "uniform on its box in the fitted coordinate (log-uniform for a log-scaled parameter; "
+            "the boxes are the material limits of soft magnetic alloys with the core's geometry), "
+            "the series resistance's log-normal, and the two noise scales are integrated out under "
+            "log-uniform priors; the best law's prior, in physical units:"
+        ),
+    ]
+    best = next(iter(fits.values()))
+    prior = best.get("prior") or {}
+    if prior:
+        out.append(
+            TABLE(
+                ["parameter", "prior", "low", "high", "unit"],
+                [
+                    [
+                        name,
+                        p.get("distribution")
+                        + (
+                            f" (median {fmt(p['median'], 3)}, x/÷ e^{fmt(p['sigma_ln'], 2)})"
+                            if "median" in p
+                            else ""
+                        ),
+                        *(p.get("bounds") or (None, None)),
+                        p.get("unit"),
+                    ]
+                    for name, p in prior.items()
+                ],
+            )
+        )
+    if unconverged:
+        out.append(P("Not converged: " + "; ".join(unconverged) + "."))
+    if sensitivity:
+        out += [
+            P(
+                "How the evidence depends on the prior: the same posterior sampled with every "
+                "parameter's box halved (about the best fit) and doubled (about its centre); a shift "
+                "of -d ln(factor) is the Occam factor of d parameters the data determine:"
+            ),
+            TABLE(["law", "box width", "ln evidence", "shift"], sensitivity),
+        ]
+    return out
+
+
+def _mcmc_blocks(rec, names):
+    if not any(f.get("method") == "mcmc" for f in rec["fits_mcmc"].values()):
         return [P("No MCMC in this configuration.")]
     rows = []
     for model, fit in rec["fits_mcmc"].items():
+        if fit.get("method") != "mcmc":
+            continue
         d = fit["diagnostics"]
         rows.append(
             [
@@ -314,9 +424,20 @@ def _block_blocks(rec, names):
         _records_table(_named(rec["ranking_lsq"], names, "model"), RANK_COLS),
     ]
     if rec["ranking_mcmc"]:
+        nested = any(f.get("method") == "nested" for f in rec["fits_mcmc"].values())
         out += [
-            P("MCMC (posterior medians; fitted noise scales), ordered by LOO-IC:"),
-            _records_table(_named(rec["ranking_mcmc"], names, "model"), RANK_COLS),
+            P(
+                "Posteriors (nested sampling: highest-posterior draws), ordered by the Bayesian "
+                "evidence; ln B is the Bayes factor over the next law, with its verdict on the "
+                "Kass-Raftery scale (2 ln B: below 2 not worth more than a bare mention, 2-6 "
+                "positive, 6-10 strong, above 10 very strong):"
+                if nested
+                else "MCMC (highest-posterior draws; fitted noise scales), ordered by LOO-IC:"
+            ),
+            _records_table(
+                _named(rec["ranking_mcmc"], names, "model"),
+                EVIDENCE_COLS if nested else RANK_COLS,
+            ),
         ]
     wf = rec["where_models_fail"]
     out += [
@@ -363,7 +484,7 @@ def _block_blocks(rec, names):
             "determine: see the note under the summary figure."
         ),
         *_param_blocks(rec, names),
-        H(3, "MCMC diagnostics"),
-        *_mcmc_blocks(rec, names),
+        H(3, "Posteriors"),
+        *_posterior_blocks(rec, names),
     ]
     return out

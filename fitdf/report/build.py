@@ -66,9 +66,11 @@ from fitdf.data.datasets import data_dir
 from fitdf.errors import OptionError
 from fitdf.executor import Executor
 from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data
+from fitdf.inference.evidence import prior_sensitivity
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
+from fitdf.inference.nested import fit_nested
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
 from fitdf.jobcache import JobCache, default_cache_folder, run_salt
@@ -128,11 +130,14 @@ CROSS_DIRECTIONS = (
 )
 #: Blocks whose fits the limit-cycle comparison uses (thesis Tables 5.1, 5.2).
 LIMIT_CYCLE_BLOCKS = ("B.1", "B.3", "B.2", "B.5")
+#: The blocks whose best law the default report samples, one per core: each core measured at
+#: both source impedances jointly (Permalloy, Deltamax), and Supermalloy's one table.
+CORE_BLOCKS = ("permalloy-joint", "deltamax-joint", "B.4")
 
 
 @dataclass(frozen=True)
 class ReportSettings:
-    """What the report computes. ``ReportSettings.for_run(quick=...)`` gives the defaults.
+    """What the report computes. ``ReportSettings.for_run(...)`` gives the three runs' settings.
 
     Attributes
     ----------
@@ -141,12 +146,24 @@ class ReportSettings:
     blocks : tuple of str or None
         Keys of :data:`BLOCKS` (None: all).
     methods : tuple
-        ``("lsq",)`` or ``("lsq", "mcmc")``.
+        ``("lsq",)`` or ``("lsq", "mcmc")``: least squares only, or also posteriors.
     n_starts : int
         Least-squares starts (the library default; fewer starts miss optima).
     mcmc_top, cv_top, cross_top : int or None
-        MCMC, cross-validation and cross-impedance for the best N least-squares models
+        Posteriors, cross-validation and cross-impedance for the best N least-squares models
         of a block (None: all models; 0: none).
+    sampler : {"nested", "emcee"}
+        How the posteriors are sampled: nested sampling (the posterior and the evidence,
+        :func:`fitdf.inference.nested.fit_nested`; its rule: 400 effective draws, evidence
+        error <= 0.3) or emcee (:func:`fitdf.inference.mcmc.fit_mcmc`).
+    nested_live, nested_max_evaluations : int
+        Nested sampling's live points, and the evaluations at which a run stops unconverged.
+    posterior_blocks : tuple of str or None
+        The blocks whose best ``mcmc_top`` laws get posteriors (None: every block).
+    sensitivity_top : int
+        For the best this many sampled laws of each block, the evidence again with the prior
+        box halved (about the best fit) and doubled (about its centre): how much the Bayes
+        factors depend on the prior (nested sampling only).
     n_steps, max_steps, n_walkers : int
         MCMC production steps at least, at most (the chain is extended until it is
         converged: :func:`fitdf.inference.mcmc.is_converged`) and walkers (None: twice the
@@ -165,10 +182,8 @@ class ReportSettings:
         14400 steps (benchmarks/README.md); the others converge within
         the common limits.
     mcmc_skip : tuple of str
-        Laws left out of the report's MCMC (the best laws *without* them get the chains):
-        Jiles-Atherton through the exact chain costs 20-60 ms per parameter set, 5-10 times
-        Preisach, and a chain needs 10^4-10^5 sets, which a report run cannot afford;
-        ``fitdf fit --method mcmc`` still samples it.
+        Laws left out of the report's posteriors (the best laws *without* them are sampled;
+        default none).
     cv_starts : int or None
         Least-squares starts per cross-validation fold (None: polished from the block's
         optimum, :func:`fitdf.inference.ranking.cross_validate`).
@@ -188,13 +203,14 @@ class ReportSettings:
     approximate_chain : str or None
         A second chain every model is also fitted through by least squares, to show how
         far an approximation (``winding``: sinusoidal current) moves the ranking, the
-        predictions and the fitted constants; None skips it.
+        predictions and the fitted constants; None (the default) skips it
+        (``fitdf report --compare-chain winding``).
     approximate_screen : int
         Starts from the usual screen that refit adds to the exact chain's optimum (0: the
         nearest optimum of the approximation only; ``--quick``).
     dynamic_chain : str or None
         The chain with rate-dependent losses (``dynamic``: Bertotti's dynamic fields) the
-        best ``dynamic_top`` laws of each block (``dynamic_skip`` aside: Jiles-Atherton's cost)
+        best ``dynamic_top`` laws of each block (``dynamic_skip`` aside)
         are refitted through by least squares, ranked beside the static fits by AICc and, with
         ``dynamic_cv``, cross-validation (:mod:`fitdf.report.physics`); None skips them.
     printed_top : int
@@ -208,12 +224,17 @@ class ReportSettings:
     methods: tuple = ("lsq", "mcmc")
     n_starts: int = 6
     mcmc_top: int | None = 3
+    sampler: str = "nested"
+    nested_live: int = 1000
+    nested_max_evaluations: int = 100_000
+    posterior_blocks: tuple | None = None
+    sensitivity_top: int = 0
     n_steps: int = 300
     max_steps: int = 4000
     extend_steps: int | None = 6000
     closed_form_step_factor: int = 3
     n_walkers: int | None = None
-    mcmc_skip: tuple = ("jiles_atherton",)
+    mcmc_skip: tuple = ()
     cv_top: int | None = 2
     cv_starts: int | None = None
     cross_top: int | None = 2
@@ -223,27 +244,43 @@ class ReportSettings:
     workers: int = 2
     scheduler: str | None = None
     chain: str = DEFAULT_CHAIN
-    approximate_chain: str | None = "winding"
+    approximate_chain: str | None = None
     approximate_screen: int = 1
     dynamic_chain: str | None = "dynamic"
     dynamic_top: int | None = 2
-    dynamic_skip: tuple = ("jiles_atherton",)
+    dynamic_skip: tuple = ()
     dynamic_cv: bool = True
     printed_top: int | None = 2
 
     @classmethod
     def for_run(
-        cls, quick: bool = False, methods=("lsq", "mcmc"), *, scheduler: str | None = None
+        cls,
+        quick: bool = False,
+        methods=("lsq", "mcmc"),
+        *,
+        full: bool = False,
+        scheduler: str | None = None,
+        compare_chain: str | None = None,
     ) -> ReportSettings:
-        """The default settings, or the quick ones: least squares only (the same models,
-        starts and seeds, so the same rankings), no cross-validation, one model per
-        cross-impedance direction, the approximate chain's refits polished from the exact
-        optimum only; every section is still produced. ``scheduler``: run
-        on that Dask cluster (see :class:`ReportSettings`)."""
+        """The settings of the three runs of ``fitdf report``.
+
+        The default: every law on every block by least squares, cross-validation,
+        cross-impedance, limit cycles, the rate-dependent refits, and the posterior and
+        evidence of the best law of each core (:data:`CORE_BLOCKS`) by nested sampling.
+        ``full``: the posteriors of the best three laws of every block, and the evidence's
+        sensitivity to the prior for the best two. ``quick``: least squares only (the same
+        models, starts and seeds, so the same rankings), no cross-validation, one law per
+        cross-impedance direction and per refit; every section is still produced.
+        ``compare_chain``: also refit every law through this approximate chain (``winding``).
+        ``scheduler``: run on that Dask cluster (see :class:`ReportSettings`).
+        """
         methods = tuple(methods)
         bad = set(methods) - {"lsq", "mcmc"}
         if bad or "lsq" not in methods:
             raise OptionError(f"methods must be ('lsq',) or ('lsq', 'mcmc'), got {methods}")
+        if quick and full:
+            raise OptionError("--quick and --full exclude each other")
+        common = {"scheduler": scheduler, "approximate_chain": compare_chain}
         if quick:
             return cls(
                 methods=("lsq",),
@@ -254,12 +291,16 @@ class ReportSettings:
                 dynamic_top=1,
                 dynamic_cv=False,
                 printed_top=1,
-                scheduler=scheduler,
+                **common,
             )
+        sampled = "mcmc" in methods
+        if full:
+            return cls(methods=methods, mcmc_top=3 if sampled else 0, sensitivity_top=2, **common)
         return cls(
             methods=methods,
-            mcmc_top=cls.mcmc_top if "mcmc" in methods else 0,
-            scheduler=scheduler,
+            mcmc_top=1 if sampled else 0,
+            posterior_blocks=CORE_BLOCKS,
+            **common,
         )
 
     def step_limits(self, model: str) -> tuple:
@@ -282,6 +323,19 @@ class ReportSettings:
 # ------------------------------------------------------------------ jobs (top level: picklable)
 def _job_lsq(data, model, seed, n_starts, chain):
     return fit(data, model, chain=chain, method="lsq", seed=seed, n_starts=n_starts)
+
+
+def _job_nested(lsq, seed, n_live, max_evaluations, sensitivity=False):
+    """The posterior and evidence of ``lsq``'s problem; with ``sensitivity`` also the evidence
+    with the prior box halved and doubled (``diagnostics["prior_sensitivity"]``)."""
+    result = with_material(
+        fit_nested(lsq.problem, lsq, seed=seed, n_live=n_live, max_evaluations=max_evaluations)
+    )
+    if sensitivity:
+        result.diagnostics["prior_sensitivity"] = prior_sensitivity(
+            result, lsq, seed=seed, n_live=n_live, max_evaluations=max_evaluations
+        )
+    return result
 
 
 def _job_mcmc(lsq, seed, n_steps, n_walkers, max_steps=None, extend_steps=None):
@@ -382,7 +436,16 @@ def _job_figures(kind, payload):
 
 
 # ------------------------------------------------------------------ computation
-_KIND_ORDER = {"limit": 0, "mcmc": 1, "dynamic": 2, "approx": 3, "cv": 4, "printed": 5, "cross": 6}
+_KIND_ORDER = {
+    "limit": 0,
+    "nested": 1,
+    "mcmc": 1,
+    "dynamic": 2,
+    "approx": 3,
+    "cv": 4,
+    "printed": 5,
+    "cross": 6,
+}
 
 
 def _long_first(item):
@@ -390,7 +453,7 @@ def _long_first(item):
     key, (_, args) = item
     size = (
         rs.expected_cost(args[0].problem.data.label, key[2])
-        if key[0] in ("mcmc", "cv", "approx", "dynamic")
+        if key[0] in ("nested", "mcmc", "cv", "approx", "dynamic")
         else 0.0
     )
     return (_KIND_ORDER[key[0]], -size)
@@ -454,12 +517,26 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
         )
     for b in blocks:
         sampled = [m for m in ranked[b.key] if m not in settings.mcmc_skip]
-        for m in _top(sampled, settings.mcmc_top if "mcmc" in settings.methods else 0):
-            jobs[("mcmc", b.key, m)] = (
-                _job_mcmc,
-                (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers)
-                + settings.step_limits(m),
-            )
+        posterior = settings.posterior_blocks is None or b.key in settings.posterior_blocks
+        n_sampled = settings.mcmc_top if "mcmc" in settings.methods and posterior else 0
+        for i, m in enumerate(_top(sampled, n_sampled)):
+            if settings.sampler == "nested":
+                jobs[("nested", b.key, m)] = (
+                    _job_nested,
+                    (
+                        lsq[(b.key, m)],
+                        seed,
+                        settings.nested_live,
+                        settings.nested_max_evaluations,
+                        i < settings.sensitivity_top,
+                    ),
+                )
+            else:
+                jobs[("mcmc", b.key, m)] = (
+                    _job_mcmc,
+                    (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers)
+                    + settings.step_limits(m),
+                )
         for m in _top(ranked[b.key], settings.cv_top):
             jobs[("cv", b.key, m)] = (_job_cv, (lsq[(b.key, m)], seed, settings.cv_starts))
         if settings.dynamic_chain:
@@ -508,6 +585,8 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
         kind: {k[1:]: v for k, v in done.items() if k[0] == kind}
         for kind in ("mcmc", "cv", "cross", "approx", "dynamic", "printed")
     }
+    # the posteriors, whichever sampler drew them
+    out["mcmc"].update({k[1:]: v for k, v in done.items() if k[0] == "nested"})
     out["limit"] = _keep_files(done[("limit",)], figdir) if ("limit",) in done else None
     return out
 

@@ -38,7 +38,13 @@ __all__ = [
 ]
 
 #: The committed report's run: where its job times were measured, and what it took in all.
-COMMITTED_RUN = {"cpu": "AMD EPYC", "cores": 2, "workers": 2, "total_s": 7028}
+COMMITTED_RUN = {
+    "cpu": "AMD EPYC",
+    "cores": 2,
+    "workers": 2,
+    "total_s": 7028,
+    "command": "fitdf report",
+}
 
 #: The committed report's settings that set its jobs' costs (another value: another cost).
 COMMITTED_SETTINGS = {
@@ -228,12 +234,23 @@ thesis                                          2.58
 """
 
 #: First words of the keys of the jobs that are not least-squares fits.
-_KINDS = ("mcmc", "cv", "approx", "dynamic", "printed", "cross", "limit", "block", "thesis")
+_KINDS = (
+    "mcmc",
+    "nested",
+    "cv",
+    "approx",
+    "dynamic",
+    "printed",
+    "cross",
+    "limit",
+    "block",
+    "thesis",
+)
 #: Kinds of job the committed report may not have run yet, expected to cost this many times
 #: a least-squares fit on their block until it has: a refit with rate-dependent losses (the
 #: dynamic chain's 1.3-2.3x a step, from a few starts, and its cross-validation) and a fit to
 #: the rows as printed (a least-squares fit like the block's own).
-_DERIVED = {"dynamic": 6.0, "printed": 1.0}
+_DERIVED = {"dynamic": 6.0, "printed": 1.0, "nested": 40.0}
 
 
 def _words(key) -> tuple:
@@ -255,7 +272,7 @@ def _group(key) -> str:
     kind = job_kind(w)
     if kind == "lsq":
         return w[0]
-    if kind in ("mcmc", "cv", "approx", "dynamic", "printed"):
+    if kind in ("mcmc", "nested", "cv", "approx", "dynamic", "printed"):
         return w[1]
     if kind == "cross":
         return " ".join(w[1:4])
@@ -327,7 +344,10 @@ def phase_labels(settings) -> tuple[str, str, str]:
     second = [
         name
         for name, runs in (
-            ("MCMC", "mcmc" in (get("methods") or ()) and get("mcmc_top") != 0),
+            (
+                "nested sampling" if get("sampler") == "nested" else "MCMC",
+                "mcmc" in (get("methods") or ()) and get("mcmc_top") != 0,
+            ),
             ("cross-validation", get("cv_top") != 0),
             (f"{approx} refits", bool(approx)),
             ("rate-dependent refits", bool(get("dynamic_chain")) and get("dynamic_top") != 0),
@@ -340,7 +360,7 @@ def phase_labels(settings) -> tuple[str, str, str]:
 
 
 #: The order in which the report submits its second phase's kinds of job (long ones first).
-SECOND_PHASE_ORDER = ("limit", "mcmc", "dynamic", "approx", "cv", "printed", "cross")
+SECOND_PHASE_ORDER = ("limit", "nested", "mcmc", "dynamic", "approx", "cv", "printed", "cross")
 
 
 def _top(n, count: int) -> int:
@@ -382,8 +402,15 @@ def plan(settings, models, blocks, lsq_keys, folds, labels) -> tuple[list, list]
     n_dynamic = _top(settings.dynamic_top, len(dynamic)) if settings.dynamic_chain else 0
     cross = list(settings.cross) if n_cross else []
     second = [("limit", expected_seconds(("limit",)))] if settings.limit_cycles else []
+    kind = "nested" if settings.sampler == "nested" else "mcmc"
+    posterior = [
+        b
+        for b in blocks
+        if settings.posterior_blocks in (None, ()) or b in settings.posterior_blocks
+    ]
     for b in blocks:
-        second += unknown_laws("mcmc", b, n_mcmc) + unknown_laws("cv", b, n_cv)
+        n_post = n_mcmc if b in posterior else 0
+        second += unknown_laws(kind, b, n_post) + unknown_laws("cv", b, n_cv)
         if settings.approximate_chain:
             second += [("approx", expected_seconds(("approx", b, m))) for m in models]
         second += unknown_laws("dynamic", b, n_dynamic)
@@ -401,8 +428,17 @@ def plan(settings, models, blocks, lsq_keys, folds, labels) -> tuple[list, list]
         f"{_plural(len(lsq_keys), 'least-squares fit')} ({_plural(len(models), 'law')} on "
         f"{_plural(len(blocks), 'block')})"
     ]
-    if n_mcmc:
-        what.append(_plural(n_mcmc * len(blocks), "MCMC chain"))
+    if n_mcmc and posterior:
+        what.append(
+            _plural(n_mcmc * len(posterior), "posterior")
+            + (" and evidence (nested sampling)" if kind == "nested" else " (MCMC)")
+            + (
+                f", {_plural(min(settings.sensitivity_top, n_mcmc) * len(posterior), 'evidence')}"
+                " again with the prior box halved and doubled"
+                if kind == "nested" and settings.sensitivity_top
+                else ""
+            )
+        )
     if n_cv:
         n_folds = n_cv * sum(folds.get(b, 0) for b in blocks)
         what.append(
@@ -424,13 +460,14 @@ def plan(settings, models, blocks, lsq_keys, folds, labels) -> tuple[list, list]
     if settings.limit_cycles:
         what.append("the limit-cycle comparison (Tables 5.1, 5.2)")
     n_figures = (
-        (4 if n_mcmc else 3) * len(blocks)  # DF fits, loci, residuals (and a corner plot)
+        3 * len(blocks)  # DF fits, loci, residuals
+        + (len(posterior) if n_mcmc else 0)  # a corner plot of a converged posterior
         + len(cross_figures)
         + len(THESIS_GRAPHS)
         + int(settings.limit_cycles)
         + 1  # the summary
     )
-    what.append(f"{'up to ' if n_mcmc else ''}{n_figures} figures")
+    what.append(f"{'up to ' if n_mcmc and posterior else ''}{n_figures} figures")
     return phases, what
 
 
@@ -472,7 +509,7 @@ def start_line(what: list[str], estimate_s: float, workers: int, *, rough=False,
         f"About {duration_text(estimate_s)} with {workers} worker"
         f"{'s' if workers != 1 else ''} at the speed of the machine the committed report was "
         f"made on ({run['workers']} workers on {run['cores']} {run['cpu']} cores, "
-        f"{duration_text(run['total_s'])} for the full report)"
+        f"{duration_text(run['total_s'])} for `{run['command']}`)"
     )
     if rough:
         text += (

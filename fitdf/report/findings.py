@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from fitdf.data.cores import STACKING_FACTOR, STACKING_FACTOR_RANGE
+from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.report.document import law, law_names
 
 __all__ = [
@@ -133,7 +134,7 @@ def _use_sentence(blocks, names) -> str:
             also.append("AICc")
         loo = {rec["order_mcmc"][0] for rec in blocks.values() if rec.get("order_mcmc")}
         if loo == {w}:
-            also.append("LOO-IC")
+            also.append(_posterior_criterion(blocks))
         n = f"all {len(cores)} cores" if len(cores) > 1 else cores[0].capitalize()
         return (
             f"Use {names(w)} for {n}: it has the smallest RMS complex residual on "
@@ -197,11 +198,12 @@ def _ties_sentence(blocks, names) -> str | None:
         f"{names(a)} from {names(b)} on {_listed(ks)} (by AICc: within 2)"
         for (a, b), ks in aicc.items()
     ]
-    parts += [
-        f"{names(a)} from {names(b)} on {_listed(ks)} (by LOO-IC: elpd apart by less than "
-        "twice its standard error)"
-        for (a, b), ks in loo.items()
-    ]
+    by = (
+        "by the evidence: a Bayes factor not worth more than a bare mention"
+        if _posterior_criterion(blocks) == "the evidence"
+        else "by LOO-IC: elpd apart by less than twice its standard error"
+    )
+    parts += [f"{names(a)} from {names(b)} on {_listed(ks)} ({by})" for (a, b), ks in loo.items()]
     if not parts:
         mcmc = any(r.get("ranking_mcmc") for r in blocks.values())
         return (
@@ -212,22 +214,28 @@ def _ties_sentence(blocks, names) -> str | None:
     return "The data cannot tell " + "; nor ".join(parts) + "."
 
 
+def _posterior_criterion(blocks) -> str:
+    """What ranks the posteriors: the evidence (nested sampling) or LOO-IC (MCMC)."""
+    methods = {f.get("method") for rec in blocks.values() for f in rec["fits_mcmc"].values()}
+    return "the evidence" if methods == {"nested"} else "LOO-IC"
+
+
 def _chains_sentence(blocks, names) -> str:
-    """How many MCMC chains converged; which not."""
+    """How many posteriors converged; which not."""
     fits = [(k, m, f) for k, rec in blocks.items() for m, f in rec["fits_mcmc"].items()]
     if not fits:
-        return "No MCMC ran in this configuration: the ranking rests on least squares alone."
+        return "No posterior was sampled in this configuration: the ranking rests on least squares."
     bad = {}
     for k, m, f in fits:
         if not f["diagnostics"].get("converged"):
             bad.setdefault(m, []).append(k)
     if not bad:
-        return f"All {len(fits)} MCMC chains converged."
+        return f"All {len(fits)} posteriors converged."
     n_bad = sum(map(len, bad.values()))
     return (
-        f"{n_bad} of {len(fits)} MCMC chains did not converge within the step limit ("
+        f"{n_bad} of {len(fits)} posteriors did not converge within the report's limit ("
         + "; ".join(f"{names(m)} on {_listed(ks)}" for m, ks in bad.items())
-        + "), so their LOO-ICs and posterior bands are rough."
+        + "): they are listed, not drawn as results."
     )
 
 
@@ -315,12 +323,13 @@ def _block_finding(rec, results) -> str | None:
         text += f" AICc, which charges for parameters, prefers {names(aicc_best['model'])}."
     if rec["ranking_mcmc"]:
         m = rec["ranking_mcmc"][0]["model"]
+        how = _posterior_criterion({rec["key"]: rec})
         text += (
-            " MCMC (LOO-IC) agrees."
+            f" The posteriors ({how}) agree."
             if m == best["model"]
-            else f" MCMC's LOO-IC prefers {names(m)} of the {len(rec['ranking_mcmc'])} "
-            "laws sampled."
+            else f" Of the {len(rec['ranking_mcmc'])} laws sampled, {how} prefers {names(m)}."
         )
+        text += _disagreement(rec, names)
     fail = rec["where_models_fail"]
     if fail["frequency_blocks"] and fail["rows"]:
         fb, w = fail["frequency_blocks"][0], fail["rows"][0]
@@ -371,9 +380,61 @@ def _failure_pattern(blocks) -> str | None:
     return text + "."
 
 
+def _disagreement(rec, names) -> str:
+    """Where the criteria rank the sampled laws differently: AICc, LOO-IC, the evidence and
+    cross-validation, each on the laws it ranks."""
+    sampled = [r["model"] for r in rec["ranking_mcmc"]]
+    rows = {r["model"]: r for r in rec["ranking_lsq"] if r["model"] in sampled}
+    post = {r["model"]: r for r in rec["ranking_mcmc"]}
+    best = {}
+    for name, values, better in (
+        ("AICc", {m: rows[m].get("aicc") for m in rows}, min),
+        ("cross-validation", {m: rows[m].get("cv_rms_complex") for m in rows}, min),
+        ("LOO-IC", {m: post[m].get("looic") for m in post}, min),
+        ("the evidence", {m: post[m].get("log_evidence") for m in post}, max),
+    ):
+        known = {m: v for m, v in values.items() if v is not None and math.isfinite(v)}
+        if len(known) >= 2:
+            best[name] = better(known, key=known.get)
+    if len(set(best.values())) < 2:
+        return ""
+    return (
+        " The criteria disagree on the laws sampled: "
+        + "; ".join(f"{name} prefers {names(m)}" for name, m in best.items())
+        + "."
+    )
+
+
+def _span(values, fmt: str) -> str:
+    """``"a-b"`` of the smallest and largest of ``values`` in ``fmt``; one number if equal."""
+    lo, hi = fmt.format(min(values)), fmt.format(max(values))
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
 def _mcmc_finding(blocks) -> str | None:
     """The chains' convergence statistics (which chains did not converge: the conclusion)."""
-    diags = [f["diagnostics"] for rec in blocks.values() for f in rec["fits_mcmc"].values()]
+    diags = [
+        f["diagnostics"]
+        for rec in blocks.values()
+        for f in rec["fits_mcmc"].values()
+        if f.get("method", "mcmc") == "mcmc"
+    ]
+    nested = [
+        f["diagnostics"]
+        for rec in blocks.values()
+        for f in rec["fits_mcmc"].values()
+        if f.get("method") == "nested"
+    ]
+    if nested:
+        n_conv = sum(bool(d.get("converged")) for d in nested)
+        ev = [d["n_likelihood_evaluations"] for d in nested]
+        err = [d["log_evidence_error"] for d in nested]
+        return (
+            f"Nested sampling: {n_conv} of {len(nested)} posteriors meet the convergence rule "
+            f"({MIN_EFFECTIVE} effective draws, evidence error <= {MAX_LOG_EVIDENCE_ERROR}), in "
+            f"{_span(ev, '{:,.0f}')} likelihood evaluations; evidence errors "
+            f"{_span(err, '{:.2f}')}."
+        )
     if not diags:
         return None
     n_conv = sum(bool(d.get("converged")) for d in diags)

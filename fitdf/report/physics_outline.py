@@ -116,7 +116,7 @@ def _k(row, name) -> str | None:
 def _rate_dependent(rd: dict, names: dict) -> list:
     out = [
         P(
-            "Each block's best laws (Jiles-Atherton aside, for its cost) refitted with "
+            "Each block's best laws refitted with "
             "rate-dependent losses: Bertotti's classical eddy-current field k_cl dB/dt and excess "
             "field k_ex |dB/dt|^(1/2) on top of the law's loop, through the exact circuit (the "
             "`dynamic` chain), ranked by AICc beside the static fits; cv: leave-one-frequency-out "

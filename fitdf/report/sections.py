@@ -193,6 +193,13 @@ _DIAG_KEYS = (
     "extend_steps",
     "steps_needed",
     "pilot_rounds",
+    # nested sampling's
+    "log_evidence",
+    "log_evidence_error",
+    "n_effective",
+    "n_likelihood_evaluations",
+    "sampler",
+    "prior_sensitivity",
 )
 
 
@@ -236,7 +243,18 @@ def fit_record(r) -> dict:
         rec["diagnostics"]["tau_max"] = max(d["tau"].values())
         rec["diagnostics"]["rhat_max"] = max(d["rhat"].values())
         rec["diagnostics"]["ess_bulk_min"] = min(d["ess_bulk"].values())
+    elif r.method == "nested":
+        d = r.diagnostics
+        rec["diagnostics"] = {k: d[k] for k in _DIAG_KEYS if k in d}
+        if "prior" in r.info:  # the prior decides the evidence: stated in physical units
+            rec["prior"] = r.info["prior"]
     return rec
+
+
+def _posterior_rank(results) -> str:
+    """How posteriors are ranked: by the evidence when nested sampling gave every one, else
+    by PSIS-LOO."""
+    return "log_evidence" if all(r.method == "nested" for r in results) else "looic"
 
 
 def _ranking(results, cv=None, rank_by="rms_complex") -> list[dict]:
@@ -301,7 +319,9 @@ def block_record(
         "source_impedance_ohm": sorted(set(d.source_impedance.tolist())),
         "data_summary": _data_summary(block, lsq_ranked[0]),
         "ranking_lsq": _ranking(lsq_ranked, cv_by_model),
-        "ranking_mcmc": _ranking(mcmc_ranked, rank_by="looic") if mcmc_ranked else [],
+        "ranking_mcmc": _ranking(mcmc_ranked, rank_by=_posterior_rank(mcmc_ranked))
+        if mcmc_ranked
+        else [],
         "fits_lsq": {r.model: fit_record(r) for r in lsq_ranked},
         "fits_mcmc": {r.model: fit_record(r) for r in mcmc_ranked},
         "cv": {m: {k: v for k, v in c.items()} for m, c in cv_by_model.items()},
@@ -485,7 +505,12 @@ def make_figures(kind: str, payload, figdir: Path):
         return _save(fig, figdir, f"cross_{core}_{train:g}_to_{test:g}.png")
     b, lsq, mcmc = payload["block"], payload["lsq"], payload["mcmc"]
     slug = _slug(b.key)
-    best_post = mcmc[0] if mcmc and mcmc[0].model == lsq[0].model else None
+    # only a converged posterior is drawn as a result (its band and its corner plot)
+    best_post = (
+        mcmc[0]
+        if mcmc and mcmc[0].model == lsq[0].model and mcmc[0].diagnostics.get("converged")
+        else None
+    )
     out = {
         "fit": _save(
             plot_fit(lsq, band=best_post or False, excluded=payload["excluded"]),
