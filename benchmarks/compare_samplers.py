@@ -269,10 +269,21 @@ def run(spec: str, max_evals: int, out: Path, cache: Path, n_live: int | None) -
     return rec
 
 
+#: emcee's chains for these posteriors in the last report sampled by emcee (EPYC, 2 cores):
+#: pilot and production evaluations, smallest bulk ESS, job seconds.
+EMCEE_EPYC = {
+    ("B.3", "cubic_hc"): {"evals": 85200, "ess": 26, "seconds": 251, "converged": False},
+    ("B.3", "preisach"): {"evals": 75000, "ess": 21, "seconds": 583, "converged": False},
+}
+
+
 def emcee_rows(results_path: Path) -> dict:
-    """``(block, law)`` -> emcee's chain in a report: evaluations, smallest bulk ESS, job s."""
-    results = json.loads(results_path.read_text())
-    out = {}
+    """``(block, law)`` -> emcee's chain in a report: evaluations, smallest bulk ESS, job s
+    (:data:`EMCEE_EPYC` for what a report sampled by nested sampling lacks)."""
+    results = json.loads(results_path.read_text()) if results_path.exists() else None
+    out = dict(EMCEE_EPYC)
+    if results is None:
+        return out
     for r in chain_rows(results):
         g = results["blocks"][r["block"]]["fits_mcmc"][r["law"]]["diagnostics"]
         out[(r["block"], r["law"])] = {

@@ -53,6 +53,8 @@ def chain_rows(results: dict) -> list[dict]:
     rows = []
     for key, block in results["blocks"].items():
         for law, fit in block["fits_mcmc"].items():
+            if fit.get("method", "mcmc") != "mcmc":
+                continue  # (a nested-sampling posterior: no chain)
             g = fit["diagnostics"]
             d = len(g["tau"])
             pilot = (
@@ -100,6 +102,12 @@ def main(argv=None) -> int:
     ns = parser.parse_args(argv)
     results = json.loads(Path(ns.results).read_text())
     rows = chain_rows(results)
+    if not rows:
+        print(
+            f"{ns.results}: no emcee chains (its posteriors are nested sampling's); pass the "
+            "results.json of a report made with ReportSettings(sampler='emcee')"
+        )
+        return 2
     print(
         f"{'block':<16s} {'law':<15s} {'d':>2s} {'pilot ev':>9s} {'prod ev':>8s} {'pilot %':>7s} "
         f"{'job s':>6s} {'ms/ev':>6s} {'tau':>6s} {'conv':>4s} {'floor ev':>9s} {'floor s':>7s}"

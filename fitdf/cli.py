@@ -1089,7 +1089,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--full",
         action="store_true",
         help="the posteriors and evidences of the best three laws of every block, and the "
-        "evidence's sensitivity to the prior (the default samples the best law of each core)",
+        "evidence's sensitivity to the prior (the default samples the best two laws of each core)",
     )
     sp.add_argument(
         "--compare-chain",

@@ -34,8 +34,10 @@ def test_every_import_points_down():
 #: The function-level imports allowed, by file: a dependency slow to import, imported only by
 #: the run that uses it (Dask: only a report on a cluster needs it; ArviZ, 1-3 s, and corner,
 #: which imports it: only MCMC, LOO comparisons and corner plots, not a least-squares fit or
-#: a limit cycle, tests/test_cli_fast.py).
+#: a limit cycle, tests/test_cli_fast.py; nautilus, about 1 s with scikit-learn: only nested
+#: sampling).
 ALLOWED_HIDDEN = {
+    "fitdf/inference/nested.py": {"import nautilus"},
     "fitdf/executor.py": {"import distributed"},
     "fitdf/_arviz.py": {"import arviz"},
     "fitdf/plots/posterior.py": {"import corner"},

@@ -207,7 +207,9 @@ def test_fit_by_nested_sampling_prints_its_checks_and_json():
         assert d["n_effective"] >= 400 and d["log_evidence_error"] <= 0.3
         assert f["info"]["prior"]["r_series"]["distribution"].startswith("log-normal")
         shown = rows[f["model"]]
-        assert shown[3] == f"{d['log_evidence']:.2f}" and shown[5] == f"{d['log_evidence_error']:.2f}"
+        assert (
+            shown[3] == f"{d['log_evidence']:.2f}" and shown[5] == f"{d['log_evidence_error']:.2f}"
+        )
     top = j["ranking"][0]
     assert top["log_bayes_factor_next"] == pytest.approx(evidence[0] - evidence[1])
     assert top["bayes_factor_verdict"]

@@ -226,33 +226,40 @@ def test_a_quick_run_names_no_mcmc():
     assert [p.label for p in phases] == ["least squares", "figures"]  # no empty second phase
 
 
-def test_the_full_run_is_planned_as_the_committed_report_ran():
-    """At the committed machine's speed the plan of the full report takes about what the
-    committed report took: its own jobs, on its 2 workers."""
-    full = ReportSettings.for_run()
-    phases, what = _plan(full)
-    # (the second phase: 21 chains, 14 cross-validations, 56 winding and 14 rate-dependent
-    # refits, 8 cross-impedance predictions and the limit cycles)
-    assert [len(p.planned) for p in phases] == [56, 114, 12]
+def test_the_committed_run_is_planned_as_it_ran():
+    """At the committed machine's speed the plan of the command that made the committed report
+    takes about what that report took: its own jobs, on its 2 workers."""
+    assert costs.COMMITTED_RUN["command"] == "fitdf report"
+    settings = ReportSettings.for_run()
+    phases, what = _plan(settings)
+    # (the second phase: 6 posteriors, 14 cross-validations, 14 rate-dependent refits,
+    # 8 cross-impedance predictions and the limit cycles)
+    assert [len(p.planned) for p in phases] == [56, 43, 12]
     assert what[:3] == [
         "56 least-squares fits (8 laws on 7 blocks)",
-        "21 MCMC chains",
+        "6 posteriors and evidence (nested sampling)",
         "14 cross-validations (56 leave-one-frequency-out folds)",
     ]
-    assert what[-1] == "up to 41 figures"
+    assert what[-1] == "up to 37 figures"
     total = costs.estimate(phases, 2)
-    assert total == pytest.approx(costs.COMMITTED_RUN["total_s"], rel=0.02)
-    assert not costs.rough(full) and costs.rough(ReportSettings.for_run(quick=True))
+    assert total == pytest.approx(costs.COMMITTED_RUN["total_s"], rel=0.03)
+    assert not costs.rough(settings) and costs.rough(ReportSettings.for_run(quick=True))
     line = costs.start_line(what, total, 2)
-    assert "About 1 h 57 min with 2 workers" in line and "first jobs finish" in line
+    assert "About 51 min with 2 workers" in line and "52 min for `fitdf report`" in line
+    assert "first jobs finish" in line
 
 
 def test_expected_seconds_of_jobs_the_table_lacks():
     # a job of the committed report: its own time; another law: its kind's mean on the block
-    assert costs.expected_seconds(("mcmc", "B.5", "preisach")) == 1565.56
-    b5 = [1565.56, 1398.77, 109.65]
-    assert costs.expected_seconds(("mcmc", "B.5", "rayleigh")) == pytest.approx(sum(b5) / 3)
-    assert costs.unknown_laws("mcmc", "B.5", 3) == [("mcmc", s) for s in b5]
+    assert costs.expected_seconds(("nested", "B.4", "preisach")) == 886.82
+    b4 = [886.82, 544.92]
+    assert costs.expected_seconds(("nested", "B.4", "rayleigh")) == pytest.approx(sum(b4) / 2)
+    assert costs.unknown_laws("nested", "B.4", 2) == [("nested", s) for s in b4]
+    # a kind the committed report did not run: a multiple of the block's least-squares fits
+    lsq_b5 = [s for k, s in costs._SECONDS.items() if k.startswith("B.5 ")]
+    assert costs.expected_seconds(("mcmc", "B.5", "preisach")) == pytest.approx(
+        costs._DERIVED["mcmc"] * sum(lsq_b5) / len(lsq_b5)
+    )
     assert costs.job_kind(("cross", "permalloy", 0.0, 600.0)) == "figures"
     assert costs.job_kind(("cross", "permalloy", 0.0, 600.0, "preisach")) == "cross"
     assert costs.job_kind(("B.1", "preisach")) == "lsq"

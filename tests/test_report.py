@@ -554,30 +554,42 @@ def test_approximate_chain_refit_starts_at_the_exact_optimum():
     assert nearest.metrics["chi2"] == alone.metrics["chi2"]
 
 
-def test_settings_line_states_the_mcmc_and_cv_that_ran():
-    # the committed report's own settings: walkers chosen by the sampler (None), the step
-    # limits, the skipped law, folds polished from the optimum (cv_starts None)
+def test_settings_line_states_the_posteriors_and_cv_that_ran():
+    # the committed report's own settings: nested sampling with its live points, evaluation
+    # limit and rule, on the core blocks; folds polished from the optimum (cv_starts None)
     settings = json.loads(COMMITTED.read_text())["settings"]
     (kind, items), *_ = outline._settings_text(
         {"settings": settings, "timing": {}, "fitdf_version": "x", "seed": 0}
     )
     line = next(i for i in items if i.startswith("least squares"))
     assert "None" not in line
+    assert settings["sampler"] == "nested"
+    assert (
+        f"by nested sampling (nautilus, {settings['nested_live']} live points, up to "
+        f"{settings['nested_max_evaluations']:,} likelihood evaluations; converged at 400 "
+        "effective draws and an evidence error of at most 0.3) for the best "
+        f"{settings['mcmc_top']} least-squares models of " + ", ".join(settings["posterior_blocks"])
+    ) in line
+    assert "each fold polished from the block's optimum" in line
+    # a report sampled by emcee: its step limits
+    emcee = {**settings, "sampler": "emcee"}
+    (_, items), *_ = outline._settings_text(
+        {"settings": emcee, "timing": {}, "fitdf_version": "x", "seed": 0}
+    )
+    line = next(i for i in items if i.startswith("least squares"))
     assert (
         f"up to {settings['max_steps']}" in line
         and f"{settings['extend_steps']} for a chain" in line
     )
-    assert "not sampled: `jiles_atherton`" in line
     assert (
         f"; {settings['closed_form_step_factor']} times as many for the laws in closed form" in line
     )
-    assert "each fold polished from the block's optimum" in line
     quick = {**settings, "methods": ["lsq"], "cv_starts": 2, "extend_steps": None}
     (_, items), *_ = outline._settings_text(
         {"settings": quick, "timing": {}, "fitdf_version": "x", "seed": 0}
     )
     line = next(i for i in items if i.startswith("least squares"))
-    assert "no MCMC" in line and "2 starts per fold" in line
+    assert "no posterior sampling" in line and "2 starts per fold" in line
 
 
 def test_settings_line_names_the_laws_with_more_starts():
@@ -635,6 +647,8 @@ def test_findings_open_with_a_conclusion_from_the_numbers():
     # what the data cannot decide: ties of the best law, chains that did not converge,
     # constants outside Appendix A
     for rec in blocks:
+        if not rec["ranking_mcmc"]:
+            continue  # (no posterior sampled on this block)
         for other in (rec["ranking_mcmc"][0].get("indistinguishable_from") or "").split(","):
             if other.strip():
                 assert f"`{other.split('/')[0].strip()}`" in text

@@ -265,8 +265,9 @@ class ReportSettings:
         """The settings of the three runs of ``fitdf report``.
 
         The default: every law on every block by least squares, cross-validation,
-        cross-impedance, limit cycles, the rate-dependent refits, and the posterior and
-        evidence of the best law of each core (:data:`CORE_BLOCKS`) by nested sampling.
+        cross-impedance, limit cycles, the rate-dependent refits, and the posteriors and
+        evidences of the best two laws of each core (:data:`CORE_BLOCKS`) by nested sampling,
+        so that each core has a Bayes factor.
         ``full``: the posteriors of the best three laws of every block, and the evidence's
         sensitivity to the prior for the best two. ``quick``: least squares only (the same
         models, starts and seeds, so the same rankings), no cross-validation, one law per
@@ -298,7 +299,7 @@ class ReportSettings:
             return cls(methods=methods, mcmc_top=3 if sampled else 0, sensitivity_top=2, **common)
         return cls(
             methods=methods,
-            mcmc_top=1 if sampled else 0,
+            mcmc_top=2 if sampled else 0,
             posterior_blocks=CORE_BLOCKS,
             **common,
         )
