@@ -288,3 +288,16 @@ def test_the_cost_table_is_the_committed_reports():
     assert {k: committed["settings"][k] for k in costs.COMMITTED_SETTINGS} == (
         costs.COMMITTED_SETTINGS
     )
+
+
+def test_a_posterior_with_its_prior_sensitivity_is_planned_three_times_as_long():
+    """``--full``: the best two laws of each block also sample the box halved and doubled in
+    the same job, so each of those jobs is planned as three posteriors."""
+    full = ReportSettings.for_run(full=True)
+    phases, _ = _plan(full)
+    nested = sorted((s for _, s in phases[1].planned if _ == "nested"), reverse=True)
+    assert len(nested) == 21
+    b4 = costs.unknown_laws("nested", "B.4", 3)
+    planned_b4 = [3 * b4[0][1], 3 * b4[1][1], b4[2][1]]
+    for s in planned_b4:
+        assert any(abs(s - n) < 1e-9 for n in nested), (s, nested)

@@ -194,7 +194,12 @@ EVIDENCE_COLS = [
 def _posterior_blocks(rec, names):
     """The posteriors' diagnostics, by sampler; an unconverged one is listed, not drawn."""
     if not rec["fits_mcmc"]:
-        return [P("No posterior in this configuration (see the report's settings).")]
+        return [
+            P(
+                "No posterior sampled on this block: this run samples the blocks its settings "
+                "name (above); `fitdf report --full` samples the best three laws of every block."
+            )
+        ]
     nested = {m: f for m, f in rec["fits_mcmc"].items() if f.get("method") == "nested"}
     out = _nested_blocks(rec, nested, names) if nested else []
     if len(nested) < len(rec["fits_mcmc"]):

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import statistics
 
+from fitdf.inference.evidence import SENSITIVITY_FACTORS
 from fitdf.plots.thesis import THESIS_GRAPHS
 from fitdf.report.progress import Phase, duration_text, schedule_length
 
@@ -360,9 +361,15 @@ def plan(settings, models, blocks, lsq_keys, folds, labels) -> tuple[list, list]
         for b in blocks
         if settings.posterior_blocks in (None, ()) or b in settings.posterior_blocks
     ]
+    n_sens = min(settings.sensitivity_top, n_mcmc) if kind == "nested" else 0
     for b in blocks:
         n_post = n_mcmc if b in posterior else 0
-        second += unknown_laws(kind, b, n_post) + unknown_laws("cv", b, n_cv)
+        posteriors = unknown_laws(kind, b, n_post)
+        # a posterior with the prior's sensitivity samples twice more (the box halved and
+        # doubled) in the same job
+        posteriors = [(k, s * (1 + len(SENSITIVITY_FACTORS) * (i < n_sens))) for i, (k, s) in
+                      enumerate(posteriors)]  # fmt: skip
+        second += posteriors + unknown_laws("cv", b, n_cv)
         if settings.approximate_chain:
             second += [("approx", expected_seconds(("approx", b, m))) for m in models]
         second += unknown_laws("dynamic", b, n_dynamic)
