@@ -390,7 +390,8 @@ def test_fitted_core_cycles_at_every_gain_match_a_scan_of_the_balance_curve(b1_f
     refinement it missed the cycles of B.1's fits at some gains: the exact chain's DF
     jitters on that scale.)"""
     lp, N = _thesis_loop_parts(b1_fit)
-    A = np.geomspace(1.1, 6.0, 110)  # (below ~1.05 the loop is closed: N constant, K flat)
+    # (below about 0.6 this fit's K(A) turns over: more than one cycle per gain)
+    A = np.geomspace(0.6, 6.0, 140)
     w = np.geomspace(5.0, 30.0, 1200)
     G0 = lp.response(w, [1.0])[0]
     phase = np.angle(-G0[None, :] * _evaluate_N(N, A[:, None], w[None, :]))
@@ -405,6 +406,7 @@ def test_fitted_core_cycles_at_every_gain_match_a_scan_of_the_balance_curve(b1_f
         curve.append(1.0 / abs(lp.response([wc], [1.0])[0, 0] * N(A[i], wc)))
     K = np.array(curve)
     assert np.all(np.diff(K) > 0)  # one cycle per gain in this box
+    assert K[0] < 40.0 and K[-1] > 150.0  # every gain below has its cycle inside the box
     gains = np.array([40.0, 55.55095776698429, 75.0, 101.0, 150.0])
     expected = np.exp(np.interp(gains, K, np.log(A)))
     r = limit_cycles(THESIS_PLANT, b1_fit, gains=gains, **THESIS_LOOP)
