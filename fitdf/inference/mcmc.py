@@ -73,6 +73,7 @@ from fitdf.inference.results import FitResult, PosteriorResult, residual_table
 
 __all__ = [
     "fit_mcmc",
+    "loo_record",
     "default_moves",
     "LogPosterior",
     "NOISE_BOUNDS",
@@ -256,6 +257,27 @@ def is_converged(steps_over_tau, rhat, ess_bulk=None) -> bool:
     return bool(steps_over_tau >= MIN_STEPS_OVER_TAU and max(rhat.values()) < RHAT_MAX and ess_ok)
 
 
+def loo_record(loo, waic) -> dict:
+    """The PSIS-LOO and WAIC summary a posterior's diagnostics carry, from ArviZ's
+    ``loo(..., pointwise=True)`` and ``waic(...)``: elpd with standard errors, the deviance-scale
+    LOO-IC and WAIC, the largest Pareto k and the rows above 0.7, and the pointwise elpd."""
+    pareto_k = np.asarray(loo.pareto_k)
+    return {
+        "elpd_loo": float(loo.elpd_loo),
+        "elpd_loo_se": float(loo.se),
+        "p_loo": float(loo.p_loo),
+        "looic": float(-2 * loo.elpd_loo),
+        "looic_se": float(2 * loo.se),
+        "elpd_waic": float(waic.elpd_waic),
+        "elpd_waic_se": float(waic.se),
+        "waic": float(-2 * waic.elpd_waic),
+        "waic_se": float(2 * waic.se),
+        "pareto_k_max": float(np.max(pareto_k)),
+        "n_pareto_k_bad": int(np.sum(pareto_k > 0.7)),
+        "pointwise_elpd_loo": np.asarray(loo.loo_i).tolist(),
+    }
+
+
 def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
     """R-hat and bulk ESS on the whole post-burn chain; PSIS-LOO and WAIC on a subsample.
 
@@ -279,22 +301,7 @@ def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
             if "More chains" not in str(x.message) and "refactor" not in str(x.message)
         }
     )
-    pareto_k = np.asarray(loo.pareto_k)
-    return {
-        **diag,
-        "elpd_loo": float(loo.elpd_loo),
-        "elpd_loo_se": float(loo.se),
-        "p_loo": float(loo.p_loo),
-        "looic": float(-2 * loo.elpd_loo),
-        "looic_se": float(2 * loo.se),
-        "elpd_waic": float(waic.elpd_waic),
-        "elpd_waic_se": float(waic.se),
-        "waic": float(-2 * waic.elpd_waic),
-        "waic_se": float(2 * waic.se),
-        "pareto_k_max": float(np.max(pareto_k)),
-        "n_pareto_k_bad": int(np.sum(pareto_k > 0.7)),
-        "pointwise_elpd_loo": np.asarray(loo.loo_i).tolist(),
-    }, caught
+    return {**diag, **loo_record(loo, waic)}, caught
 
 
 def _tau_range(tau, n_steps):

@@ -85,6 +85,7 @@ from fitdf.inference.caveats import (
     noise_bound_warnings,
     posterior_bound_warnings,
 )
+from fitdf.inference.mcmc import loo_record
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
 from fitdf.inference.problem import FitProblem
@@ -319,21 +320,7 @@ def _loo_diagnostics(problem, draws, noise_draws):
         loo = az.loo(idata, pointwise=True)
         waic = az.waic(idata, pointwise=True)
     caught = sorted({str(x.message).split("\n")[0] for x in w if "refactor" not in str(x.message)})
-    pareto_k = np.asarray(loo.pareto_k)
-    return {
-        "elpd_loo": float(loo.elpd_loo),
-        "elpd_loo_se": float(loo.se),
-        "p_loo": float(loo.p_loo),
-        "looic": float(-2 * loo.elpd_loo),
-        "looic_se": float(2 * loo.se),
-        "elpd_waic": float(waic.elpd_waic),
-        "elpd_waic_se": float(waic.se),
-        "waic": float(-2 * waic.elpd_waic),
-        "waic_se": float(2 * waic.se),
-        "pareto_k_max": float(np.max(pareto_k)),
-        "n_pareto_k_bad": int(np.sum(pareto_k > 0.7)),
-        "pointwise_elpd_loo": np.asarray(loo.loo_i).tolist(),
-    }, caught
+    return loo_record(loo, waic), caught
 
 
 class _Padded:
