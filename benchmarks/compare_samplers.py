@@ -148,13 +148,14 @@ def problem_and_start(block: str, law: str, cache: Path):
     return problem, np.asarray(kept[name]["internal"], float)
 
 
-def run_nautilus_case(transform, loglike, ndim, seed, max_evals, n_live):
+def run_nautilus_case(transform, loglike, ndim, seed, max_evals, n_live, n_networks=4):
     ns, error, rounds, finished = run_nautilus(
         transform,
         loglike,
         ndim,
         seed=seed,
         n_live=n_live,
+        n_networks=n_networks,
         max_evaluations=max_evals,
         discard_exploration=True,
     )
@@ -165,7 +166,7 @@ def run_nautilus_case(transform, loglike, ndim, seed, max_evals, n_live):
         "finished": finished,
         "settings": {
             "n_live": n_live,
-            "n_networks": 4,
+            "n_networks": n_networks,
             "n_batch": int(ns.n_batch),
             "f_live": 0.01,
             "discard_exploration": True,
@@ -182,7 +183,7 @@ def run_nautilus_case(transform, loglike, ndim, seed, max_evals, n_live):
     return out
 
 
-def run_dynesty(transform, loglike, ndim, seed, max_evals, n_live):
+def run_dynesty(transform, loglike, ndim, seed, max_evals, n_live, n_networks=None):
     import dynesty
 
     sampler = dynesty.NestedSampler(
@@ -201,7 +202,7 @@ def run_dynesty(transform, loglike, ndim, seed, max_evals, n_live):
     }  # fmt: skip
 
 
-def run_ultranest(transform, loglike, ndim, seed, max_evals, n_live):
+def run_ultranest(transform, loglike, ndim, seed, max_evals, n_live, n_networks=None):
     import ultranest
 
     logging.getLogger("ultranest").setLevel(logging.WARNING)
@@ -228,7 +229,9 @@ def run_ultranest(transform, loglike, ndim, seed, max_evals, n_live):
 RUNNERS = {"nautilus": run_nautilus_case, "dynesty": run_dynesty, "ultranest": run_ultranest}
 
 
-def run(spec: str, max_evals: int, out: Path, cache: Path, n_live: int | None) -> dict:
+def run(
+    spec: str, max_evals: int, out: Path, cache: Path, n_live: int | None, n_networks: int = 4
+) -> dict:
     block, law, sampler, seed = spec.split(":")
     seed = int(seed)
     problem, _ = problem_and_start(block, law, cache)  # (the solver starts cold, as the engine's)
@@ -236,7 +239,7 @@ def run(spec: str, max_evals: int, out: Path, cache: Path, n_live: int | None) -
     loglike = Counted(NestedLikelihood(problem))
     n_live = n_live or DEFAULT_LIVE[sampler]
     t0, c0 = time.perf_counter(), time.process_time()
-    rec = RUNNERS[sampler](transform, loglike, problem.ndim, seed, max_evals, n_live)
+    rec = RUNNERS[sampler](transform, loglike, problem.ndim, seed, max_evals, n_live, n_networks)
     rec.update(
         {
             "block": block,
@@ -295,12 +298,28 @@ def emcee_rows(results_path: Path) -> dict:
     return out
 
 
+def variant(record) -> tuple[str, str]:
+    """``(sampler, settings label)``: nautilus's runs are told apart by live points and
+    networks (`` 500/1``); the others by sampler alone."""
+    if record["sampler"] != "nautilus":
+        return record["sampler"], ""
+    s = record["settings"]
+    return "nautilus", f" {s['n_live']}/{s['n_networks']}"
+
+
+def variants(records) -> list:
+    """The samplers and settings in ``records``, in :data:`SAMPLERS` order, nautilus's by
+    live points."""
+    found = {variant(r) for r in records}
+    return sorted(found, key=lambda v: (SAMPLERS.index(v[0]), int(v[1].split("/")[0] or 0), v[1]))
+
+
 def table(out: Path, results_path: Path) -> None:
     records = json.loads(out.read_text()) if out.exists() else []
     emcee = emcee_rows(results_path)
     cases = sorted({(r["block"], r["law"]) for r in records})
     head = (
-        f"{'block':<12s} {'law':<9s} {'sampler':<10s} {'runs':>4s} {'evals':>7s} {'n_eff':>6s} "
+        f"{'block':<12s} {'law':<9s} {'sampler':<17s} {'runs':>4s} {'evals':>7s} {'n_eff':>6s} "
         f"{'eff/eval':>8s} {'log Z':>8s} {'+-':>5s} {'spread':>6s} {'wall s':>7s} {'like %':>6s} "
         f"{'conv':>5s}"
     )
@@ -312,13 +331,15 @@ def table(out: Path, results_path: Path) -> None:
             e = None
         if e:
             print(
-                f"{block:<12s} {law:<9s} {'emcee':<10s} {1:>4d} {e['evals']:>7d} {e['ess']:>6.0f} "
+                f"{block:<12s} {law:<9s} {'emcee':<17s} {1:>4d} {e['evals']:>7d} {e['ess']:>6.0f} "
                 f"{e['ess'] / e['evals']:>8.4f} {'':>8s} {'':>5s} {'':>6s} {e['seconds']:>7.0f} "
                 f"{'':>6s} {'yes' if e['converged'] else 'no':>5s}  (report, EPYC)"
             )
-        for sampler in SAMPLERS:
+        for sampler, label in variants(records):
             rs = [
-                r for r in records if (r["block"], r["law"], r["sampler"]) == (block, law, sampler)
+                r
+                for r in records
+                if (r["block"], r["law"]) == (block, law) and variant(r) == (sampler, label)
             ]
             if not rs:
                 continue
@@ -326,7 +347,7 @@ def table(out: Path, results_path: Path) -> None:
             spread = f"{np.ptp(z):.2f}" if len(rs) > 1 else ""
             conv = sum(r["converged"] for r in rs)
             print(
-                f"{block:<12s} {law:<9s} {sampler:<10s} {len(rs):>4d} "
+                f"{block:<12s} {law:<9s} {sampler + label:<17s} {len(rs):>4d} "
                 f"{np.mean([r['n_like'] for r in rs]):>7.0f} "
                 f"{np.mean([r['n_eff'] for r in rs]):>6.0f} "
                 f"{np.mean([r['eff_per_eval'] for r in rs]):>8.4f} {np.mean(z):>8.2f} "
@@ -339,15 +360,12 @@ def table(out: Path, results_path: Path) -> None:
         f"\nconverged: at least {MIN_EFFECTIVE} effective draws (Kish) and a log-evidence error "
         f"of at most {MAX_LOG_EVIDENCE_ERROR}; emcee: bulk ESS (R-hat, 50 tau besides)"
     )
-    by = {
-        s: [r for r in records if r["sampler"] == s]
-        for s in SAMPLERS
-        if any(r["sampler"] == s for r in records)
-    }
-    for s, rs in by.items():
+    for sampler, label in variants(records):
+        rs = [r for r in records if variant(r) == (sampler, label)]
         conv = sum(r["converged"] for r in rs)
-        print(f"{s}: {conv} of {len(rs)} runs converged; median effective draws per evaluation "
-              f"{np.median([r['eff_per_eval'] for r in rs]):.4f}")  # fmt: skip
+        print(f"{sampler + label}: {conv} of {len(rs)} runs converged; median effective draws "
+              f"per evaluation {np.median([r['eff_per_eval'] for r in rs]):.4f}, median wall "
+              f"{np.median([r['wall_s'] for r in rs]):.0f} s")  # fmt: skip
 
 
 def _site_size(dist_name: str) -> int:
@@ -408,6 +426,7 @@ def main(argv=None) -> None:
     p_run.add_argument("specs", nargs="+")
     p_run.add_argument("--max-evals", type=int, default=60_000)
     p_run.add_argument("--live", type=int, default=None, help="live points (default per sampler)")
+    p_run.add_argument("--networks", type=int, default=4, help="nautilus's networks per bound")
     p_table = sub.add_parser("table", help="print the runs recorded so far beside emcee's")
     p_table.add_argument("--results", type=Path, default=ROOT / "reports" / "results.json")
     sub.add_parser("weight", help="versions and dependency weight of the samplers")
@@ -417,7 +436,7 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     if args.command == "run":
         for spec in args.specs:
-            run(spec, args.max_evals, args.out, args.lsq_cache, args.live)
+            run(spec, args.max_evals, args.out, args.lsq_cache, args.live, args.networks)
     elif args.command == "table":
         table(args.out, args.results)
     else:

@@ -565,7 +565,8 @@ def test_settings_line_states_the_posteriors_and_cv_that_ran():
     assert "None" not in line
     assert settings["sampler"] == "nested"
     assert (
-        f"by nested sampling (nautilus, {settings['nested_live']} live points, up to "
+        f"by nested sampling (nautilus, {settings['nested_live']} live points, "
+        f"{outline._networks(settings.get('nested_networks', 4))} per bound, up to "
         f"{settings['nested_max_evaluations']:,} likelihood evaluations; converged at 400 "
         "effective draws and an evidence error of at most 0.3) for the best "
         f"{settings['mcmc_top']} least-squares models of " + ", ".join(settings["posterior_blocks"])

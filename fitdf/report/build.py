@@ -70,7 +70,7 @@ from fitdf.inference.evidence import prior_sensitivity
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
-from fitdf.inference.nested import fit_nested
+from fitdf.inference.nested import DEFAULT_LIVE, DEFAULT_NETWORKS, fit_nested
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
 from fitdf.jobcache import JobCache, default_cache_folder, run_salt
@@ -156,8 +156,9 @@ class ReportSettings:
         How the posteriors are sampled: nested sampling (the posterior and the evidence,
         :func:`fitdf.inference.nested.fit_nested`; its rule: 400 effective draws, evidence
         error <= 0.3) or emcee (:func:`fitdf.inference.mcmc.fit_mcmc`).
-    nested_live, nested_max_evaluations : int
-        Nested sampling's live points, and the evaluations at which a run stops unconverged.
+    nested_live, nested_networks, nested_max_evaluations : int
+        Nested sampling's live points, networks per bound, and the evaluations at which a run
+        stops unconverged.
     posterior_blocks : tuple of str or None
         The blocks whose best ``mcmc_top`` laws get posteriors (None: every block).
     sensitivity_top : int
@@ -225,7 +226,8 @@ class ReportSettings:
     n_starts: int = 6
     mcmc_top: int | None = 3
     sampler: str = "nested"
-    nested_live: int = 1000
+    nested_live: int = DEFAULT_LIVE
+    nested_networks: int = DEFAULT_NETWORKS
     nested_max_evaluations: int = 100_000
     posterior_blocks: tuple | None = None
     sensitivity_top: int = 0
@@ -326,15 +328,14 @@ def _job_lsq(data, model, seed, n_starts, chain):
     return fit(data, model, chain=chain, method="lsq", seed=seed, n_starts=n_starts)
 
 
-def _job_nested(lsq, seed, n_live, max_evaluations, sensitivity=False):
+def _job_nested(lsq, seed, n_live, n_networks, max_evaluations, sensitivity=False):
     """The posterior and evidence of ``lsq``'s problem; with ``sensitivity`` also the evidence
     with the prior box halved and doubled (``diagnostics["prior_sensitivity"]``)."""
-    result = with_material(
-        fit_nested(lsq.problem, lsq, seed=seed, n_live=n_live, max_evaluations=max_evaluations)
-    )
+    options = {"n_live": n_live, "n_networks": n_networks, "max_evaluations": max_evaluations}
+    result = with_material(fit_nested(lsq.problem, lsq, seed=seed, **options))
     if sensitivity:
         result.diagnostics["prior_sensitivity"] = prior_sensitivity(
-            result, lsq, seed=seed, n_live=n_live, max_evaluations=max_evaluations
+            result, lsq, seed=seed, **options
         )
     return result
 
@@ -528,6 +529,7 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
                         lsq[(b.key, m)],
                         seed,
                         settings.nested_live,
+                        settings.nested_networks,
                         settings.nested_max_evaluations,
                         i < settings.sensitivity_top,
                     ),

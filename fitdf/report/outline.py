@@ -61,6 +61,11 @@ def _more_starts(models, n_starts) -> str:
     return f" ({', '.join(more)}, whose chi-square has kinks)" if more else ""
 
 
+def _networks(n: int) -> str:
+    """``1`` -> "one network", ``4`` -> "4 networks" (nautilus's emulators per bound)."""
+    return "one network" if n == 1 else f"{n} networks"
+
+
 def _machine_text(machine) -> str:
     """Where the numbers were computed (``fitdf.machine``)."""
     if not machine:
@@ -106,10 +111,11 @@ def _settings_text(res) -> list:
         where = s.get("posterior_blocks")
         mcmc = (
             "posteriors and their Bayesian evidence by nested sampling (nautilus, {live} live "
-            "points, up to {mx:,} likelihood evaluations; converged at {eff} effective draws and "
+            "points, {nets} per bound, up to {mx:,} likelihood evaluations; converged at {eff} effective draws and "
             "an evidence error of at most {err}) for the best {top} least-squares models of "
             "{where}{sens}".format(
                 live=s["nested_live"],
+                nets=_networks(s.get("nested_networks", 4)),
                 mx=s["nested_max_evaluations"],
                 eff=MIN_EFFECTIVE,
                 err=MAX_LOG_EVIDENCE_ERROR,
