@@ -13,7 +13,7 @@ import pytest
 
 from fitdf.executor import Executor
 from fitdf.report import costs
-from fitdf.report.build import ReportSettings
+from fitdf.report.build import ReportSettings, printed_blocks
 from fitdf.report.costs import phase_labels
 from fitdf.report.progress import Phase, RunProgress, duration_text, schedule_length
 
@@ -192,7 +192,8 @@ def _plan(settings):
     models, blocks = settings.model_list(), [b.key for b in settings.block_list()]
     lsq = [(b, m) for b in blocks for m in models]
     folds = dict.fromkeys(blocks, 4)
-    return costs.plan(settings, models, blocks, lsq, folds, phase_labels(settings))
+    printed = [b.key for b in printed_blocks(settings.block_list())]
+    return costs.plan(settings, models, blocks, lsq, folds, phase_labels(settings), printed)
 
 
 def test_a_quick_run_names_no_mcmc():
@@ -221,6 +222,7 @@ def test_a_quick_run_names_no_mcmc():
         limit_cycles=False,
         approximate_chain=None,
         dynamic_chain=None,
+        printed_top=0,
     )
     phases, _ = _plan(bare)
     assert [p.label for p in phases] == ["least squares", "figures"]  # no empty second phase
@@ -232,9 +234,9 @@ def test_the_committed_run_is_planned_as_it_ran():
     assert costs.COMMITTED_RUN["command"] == "fitdf report"
     settings = ReportSettings.for_run()
     phases, what = _plan(settings)
-    # (the second phase: 6 posteriors, 14 cross-validations, 14 rate-dependent refits,
-    # 8 cross-impedance predictions and the limit cycles)
-    assert [len(p.planned) for p in phases] == [56, 43, 12]
+    # (the second phase: 6 posteriors, 14 cross-validations, 14 rate-dependent refits, 4
+    # fits to the rows as printed, 8 cross-impedance predictions and the limit cycles)
+    assert [len(p.planned) for p in phases] == [56, 47, 12]
     assert what[:3] == [
         "56 least-squares fits (8 laws on 7 blocks)",
         "6 posteriors and evidence (nested sampling)",
@@ -245,14 +247,14 @@ def test_the_committed_run_is_planned_as_it_ran():
     assert total == pytest.approx(costs.COMMITTED_RUN["total_s"], rel=0.03)
     assert not costs.rough(settings) and costs.rough(ReportSettings.for_run(quick=True))
     line = costs.start_line(what, total, 2)
-    assert "About 51 min with 2 workers" in line and "52 min for `fitdf report`" in line
+    assert "About 20 min with 2 workers" in line and "20 min for `fitdf report`" in line
     assert "first jobs finish" in line
 
 
 def test_expected_seconds_of_jobs_the_table_lacks():
     # a job of the committed report: its own time; another law: its kind's mean on the block
-    assert costs.expected_seconds(("nested", "B.4", "preisach")) == 886.82
-    b4 = [886.82, 544.92]
+    assert costs.expected_seconds(("nested", "B.4", "preisach")) == 221.49
+    b4 = [221.49, 138.43]
     assert costs.expected_seconds(("nested", "B.4", "rayleigh")) == pytest.approx(sum(b4) / 2)
     assert costs.unknown_laws("nested", "B.4", 2) == [("nested", s) for s in b4]
     # a kind the committed report did not run: a multiple of the block's least-squares fits

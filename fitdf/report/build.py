@@ -884,7 +884,9 @@ def _display(settings: ReportSettings, runner: Executor, progress: bool, cached:
             d = resolve_data(b.data, "default", None)
             folds[b.key] = len(set(zip(d.source_impedance.tolist(), d.frequency.tolist())))
     lsq_keys = [(b.key, m) for b, m in _lsq_order(models, blocks)]
-    phases, what = costs.plan(settings, models, keys, lsq_keys, folds, costs.phase_labels(settings))
+    printed = [b.key for b in printed_blocks(blocks)]
+    labels = costs.phase_labels(settings)
+    phases, what = costs.plan(settings, models, keys, lsq_keys, folds, labels, printed)
     if progress:
         line = costs.start_line(
             what,

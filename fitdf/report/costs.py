@@ -2,10 +2,11 @@
 the run's phases as planned before it starts; and the lines that open it.
 
 Expected seconds
-    :data:`_TABLE` holds every job of the committed full report (``reports/results.json``,
+    :data:`_TABLE` holds every job of the committed report (``reports/results.json``,
     ``timing.jobs_s``: the seconds each job took) as it ran there, on
-    :data:`COMMITTED_RUN`'s machine. A job the table lacks -- another law, block or
-    cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind on
+    :data:`COMMITTED_RUN`'s machine; a posterior job that sampled its prior's sensitivity
+    too is entered as one of its three runs (:func:`table_text`). A job the table lacks --
+    another law, block or cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind on
     its block (or direction), else of its kind. The report's progress display scales these by
     what this machine measures as jobs finish (:mod:`fitdf.report.progress`). After the
     committed report is regenerated, refresh the table and :data:`COMMITTED_RUN` with
@@ -43,7 +44,7 @@ COMMITTED_RUN = {
     "cpu": "Intel(R) Xeon(R) Processor",
     "cores": 2,
     "workers": 2,
-    "total_s": 3112,
+    "total_s": 1188,
     "command": "fitdf report",
 }
 
@@ -60,128 +61,129 @@ COMMITTED_SETTINGS = {
     "approximate_chain": None,
     "approximate_screen": 1,
     "sampler": "nested",
-    "nested_live": 1000,
+    "nested_live": 300,
+    "nested_networks": 1,
     "nested_max_evaluations": 100000,
 }
 
 #: Seconds of each job of the committed report, under its key joined by spaces
 #: (:func:`table_text` of its results.json).
 _TABLE = """
-deltamax-joint jiles_atherton            10.87
-B.5 jiles_atherton                       12.67
-permalloy-joint jiles_atherton           6.27
-B.4 jiles_atherton                       5.27
-deltamax-joint preisach                  22.81
-B.5 preisach                             19.82
-deltamax-joint cubic_hc                  30.64
-B.1 jiles_atherton                       3.05
-permalloy-joint preisach                 10.49
-B.3 jiles_atherton                       3.02
-B.4 preisach                             8.46
-B.2 jiles_atherton                       3.84
-B.5 cubic_hc                             31.73
-deltamax-joint rayleigh                  5.13
-permalloy-joint cubic_hc                 23.01
-B.4 cubic_hc                             20.98
-deltamax-joint constant_width            3.1
-B.5 rayleigh                             3.87
-B.1 preisach                             8.23
-B.3 preisach                             4.47
-permalloy-joint rayleigh                 2.76
-B.2 preisach                             10.81
-deltamax-joint frequency_hc              5.96
-B.5 constant_width                       3.63
-B.4 rayleigh                             2.38
-B.1 cubic_hc                             14.71
-permalloy-joint constant_width           2.08
-B.3 cubic_hc                             15.7
-B.5 frequency_hc                         4.61
-B.4 constant_width                       3.46
-B.2 cubic_hc                             12.51
-deltamax-joint proportional_width        5.5
-deltamax-joint proportional_width_fig42  7.78
-permalloy-joint frequency_hc             4.9
-B.4 frequency_hc                         3.08
-B.1 rayleigh                             1.1
-B.3 rayleigh                             1.54
-B.5 proportional_width                   4.12
-B.5 proportional_width_fig42             4.39
-B.2 rayleigh                             0.97
-B.1 constant_width                       1.16
-permalloy-joint proportional_width       3.84
-permalloy-joint proportional_width_fig42 3.69
-B.3 constant_width                       1.81
-B.4 proportional_width                   2.87
-B.4 proportional_width_fig42             4.5
-B.2 constant_width                       1.94
-B.1 frequency_hc                         2.02
-B.3 frequency_hc                         2.19
-B.2 frequency_hc                         2.59
-B.1 proportional_width                   2.5
-B.1 proportional_width_fig42             2.45
-B.3 proportional_width                   1.81
-B.3 proportional_width_fig42             2.97
-B.2 proportional_width                   2.54
-B.2 proportional_width_fig42             1.04
-limit                                    25.06
-nested permalloy-joint jiles_atherton    676.47
-nested B.4 jiles_atherton                544.92
-nested deltamax-joint preisach           1136.43
-nested deltamax-joint cubic_hc           1013.55
-nested permalloy-joint preisach          1065.48
-nested B.4 preisach                      886.82
-dynamic permalloy-joint jiles_atherton   10.39
-dynamic B.4 jiles_atherton               8.42
-dynamic deltamax-joint preisach          43.9
-dynamic B.5 preisach                     25.01
-dynamic deltamax-joint cubic_hc          26.88
-dynamic B.1 jiles_atherton               4.73
-dynamic permalloy-joint preisach         19.47
-dynamic B.3 jiles_atherton               4.27
-dynamic B.4 preisach                     12.25
-dynamic B.2 jiles_atherton               3.92
-dynamic B.5 cubic_hc                     12.76
-dynamic B.1 preisach                     7.9
-dynamic B.3 preisach                     5.68
-dynamic B.2 preisach                     5.32
-cv permalloy-joint jiles_atherton        4.34
-cv B.4 jiles_atherton                    2.5
-cv deltamax-joint preisach               13.12
-cv B.5 preisach                          9.79
-cv deltamax-joint cubic_hc               5.83
-cv B.1 jiles_atherton                    1.35
-cv permalloy-joint preisach              7.23
-cv B.3 jiles_atherton                    0.94
-cv B.4 preisach                          3.49
-cv B.2 jiles_atherton                    1.29
-cv B.5 cubic_hc                          4.85
-cv B.1 preisach                          4.51
-cv B.3 preisach                          1.3
-cv B.2 preisach                          1.88
-printed B.5 preisach                     12.38
-printed B.5 cubic_hc                     22.12
-printed deltamax-joint preisach          13.86
-printed deltamax-joint cubic_hc          26.98
-cross permalloy 0.0 600.0 preisach       9.42
-cross permalloy 0.0 600.0 jiles_atherton 4.68
-cross permalloy 600.0 0.0 preisach       7.61
-cross permalloy 600.0 0.0 jiles_atherton 4.86
-cross deltamax 0.0 600.0 preisach        13.82
-cross deltamax 0.0 600.0 jiles_atherton  8.98
-cross deltamax 600.0 0.0 preisach        12.43
-cross deltamax 600.0 0.0 cubic_hc        21.23
-block B.1                                1.93
+deltamax-joint jiles_atherton            7.78
+B.5 jiles_atherton                       9.37
+permalloy-joint jiles_atherton           4.35
+B.4 jiles_atherton                       3.63
+deltamax-joint preisach                  16.34
+B.5 preisach                             14.75
+deltamax-joint cubic_hc                  26.58
+B.1 jiles_atherton                       2.46
+permalloy-joint preisach                 8.14
+B.3 jiles_atherton                       2.5
+B.4 preisach                             6.66
+B.2 jiles_atherton                       3.36
+B.5 cubic_hc                             26.2
+deltamax-joint rayleigh                  4.21
+permalloy-joint cubic_hc                 18.8
+B.4 cubic_hc                             17.82
+deltamax-joint constant_width            2.5
+B.5 rayleigh                             2.96
+B.1 preisach                             6.39
+B.3 preisach                             3.58
+permalloy-joint rayleigh                 2.06
+B.2 preisach                             7.97
+deltamax-joint frequency_hc              4.52
+B.5 constant_width                       2.83
+B.4 rayleigh                             1.89
+B.1 cubic_hc                             11.5
+permalloy-joint constant_width           1.54
+B.3 cubic_hc                             12.6
+B.5 frequency_hc                         3.77
+B.4 constant_width                       2.63
+B.2 cubic_hc                             10.14
+deltamax-joint proportional_width        4.08
+deltamax-joint proportional_width_fig42  5.67
+permalloy-joint frequency_hc             3.7
+B.4 frequency_hc                         2.34
+B.1 rayleigh                             0.87
+B.3 rayleigh                             1.25
+B.5 proportional_width                   3.05
+B.5 proportional_width_fig42             3.49
+B.2 rayleigh                             0.78
+B.1 constant_width                       0.86
+permalloy-joint proportional_width       2.89
+permalloy-joint proportional_width_fig42 2.91
+B.3 constant_width                       1.37
+B.4 proportional_width                   2.06
+B.4 proportional_width_fig42             3.31
+B.2 constant_width                       1.36
+B.1 frequency_hc                         1.49
+B.3 frequency_hc                         1.62
+B.2 frequency_hc                         1.97
+B.1 proportional_width                   2.03
+B.1 proportional_width_fig42             2.01
+B.3 proportional_width                   1.67
+B.3 proportional_width_fig42             2.55
+B.2 proportional_width                   2.03
+B.2 proportional_width_fig42             1.17
+limit                                    19.79
+nested permalloy-joint jiles_atherton    181.02
+nested B.4 jiles_atherton                138.43
+nested deltamax-joint preisach           414.97
+nested deltamax-joint cubic_hc           348.91
+nested permalloy-joint preisach          290.63
+nested B.4 preisach                      221.49
+dynamic permalloy-joint jiles_atherton   10.76
+dynamic B.4 jiles_atherton               8.06
+dynamic deltamax-joint preisach          40.34
+dynamic B.5 preisach                     22.56
+dynamic deltamax-joint cubic_hc          23.63
+dynamic B.1 jiles_atherton               4.15
+dynamic permalloy-joint preisach         17.13
+dynamic B.3 jiles_atherton               3.81
+dynamic B.4 preisach                     11.57
+dynamic B.2 jiles_atherton               3.54
+dynamic B.5 cubic_hc                     11.64
+dynamic B.1 preisach                     7.24
+dynamic B.3 preisach                     5.6
+dynamic B.2 preisach                     5.13
+cv permalloy-joint jiles_atherton        4.07
+cv B.4 jiles_atherton                    2.32
+cv deltamax-joint preisach               13.14
+cv B.5 preisach                          9.64
+cv deltamax-joint cubic_hc               5.35
+cv B.1 jiles_atherton                    1.2
+cv permalloy-joint preisach              7.28
+cv B.3 jiles_atherton                    0.92
+cv B.4 preisach                          3.36
+cv B.2 jiles_atherton                    1.21
+cv B.5 cubic_hc                          4.08
+cv B.1 preisach                          4.27
+cv B.3 preisach                          1.16
+cv B.2 preisach                          1.66
+printed B.5 preisach                     11.6
+printed B.5 cubic_hc                     19.46
+printed deltamax-joint preisach          13.35
+printed deltamax-joint cubic_hc          24.59
+cross permalloy 0.0 600.0 preisach       8.84
+cross permalloy 0.0 600.0 jiles_atherton 4.36
+cross permalloy 600.0 0.0 preisach       7.46
+cross permalloy 600.0 0.0 jiles_atherton 4.63
+cross deltamax 0.0 600.0 preisach        13.9
+cross deltamax 0.0 600.0 jiles_atherton  8.88
+cross deltamax 600.0 0.0 preisach        11.76
+cross deltamax 600.0 0.0 cubic_hc        19.64
+block B.1                                1.92
 block B.3                                1.52
-block B.2                                1.72
-block B.5                                2.5
-block B.4                                7.1
-block permalloy-joint                    9.36
-block deltamax-joint                     11.69
+block B.2                                1.61
+block B.5                                2.14
+block B.4                                7.24
+block permalloy-joint                    9.81
+block deltamax-joint                     11.67
 cross permalloy 0.0 600.0                1.09
-cross permalloy 600.0 0.0                1.37
-cross deltamax 0.0 600.0                 1.7
-cross deltamax 600.0 0.0                 1.43
-thesis                                   1.22
+cross permalloy 600.0 0.0                1.04
+cross deltamax 0.0 600.0                 1.79
+cross deltamax 600.0 0.0                 1.67
+thesis                                   0.98
 """
 
 #: First words of the keys of the jobs that are not least-squares fits.
@@ -325,7 +327,7 @@ def _plural(n: int, word: str) -> str:
     return f"{n} {word}{'' if n == 1 else 's'}"
 
 
-def plan(settings, models, blocks, lsq_keys, folds, labels) -> tuple[list, list]:
+def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple[list, list]:
     """The phases of a report run as planned before it starts, and what it computes.
 
     Parameters
@@ -341,6 +343,9 @@ def plan(settings, models, blocks, lsq_keys, folds, labels) -> tuple[list, list]
     labels : sequence of str
         The labels of the three phases (:func:`phase_labels`); a second phase without jobs
         is left out.
+    printed : sequence of str
+        The blocks whose rows as printed differ from the default rows (a reversed column):
+        their best ``printed_top`` laws are fitted to those too.
 
     Returns
     -------
@@ -373,6 +378,9 @@ def plan(settings, models, blocks, lsq_keys, folds, labels) -> tuple[list, list]
         if settings.approximate_chain:
             second += [("approx", expected_seconds(("approx", b, m))) for m in models]
         second += unknown_laws("dynamic", b, n_dynamic)
+    n_printed = _top(settings.printed_top, len(models))
+    for b in printed:
+        second += unknown_laws("printed", b, n_printed)
     for core, train, test, *_ in cross:
         second += unknown_laws("cross", f"{core} {train} {test}", n_cross)
     second.sort(key=lambda job: (SECOND_PHASE_ORDER.index(job[0]), -job[1]))
@@ -440,11 +448,32 @@ def rough(settings) -> bool:
     return any(getattr(settings, k) != v for k, v in COMMITTED_SETTINGS.items())
 
 
+def _sampler_runs(results: dict, key: str) -> int:
+    """How many times a report job sampled: 1, or for a posterior with its prior's
+    sensitivity 1 plus the boxes it sampled again."""
+    w = key.split()
+    if w[0] != "nested":
+        return 1
+    fit = results["blocks"].get(w[1], {}).get("fits_mcmc", {}).get(" ".join(w[2:]), {})
+    boxes = ((fit.get("diagnostics") or {}).get("prior_sensitivity") or {}).get("boxes") or []
+    return 1 + len(boxes)
+
+
 def table_text(results: dict) -> str:
-    """The text of :data:`_TABLE` for a report's results record (``results.json``)."""
+    """The text of :data:`_TABLE` for a report's results record (``results.json``).
+
+    A posterior job that also sampled the prior box halved and doubled is entered at its
+    seconds over the three runs (a third each: the plan multiplies them back for such a
+    job), so that the table holds one posterior's seconds in every ``nested`` row.
+    """
     jobs = results["timing"]["jobs_s"]
     width = max(map(len, jobs))
-    return "\n".join(f"{k:<{width}} {s:g}" for k, s in jobs.items()) + "\n"
+    return (
+        "\n".join(
+            f"{k:<{width}} {round(s / _sampler_runs(results, k), 2):g}" for k, s in jobs.items()
+        )
+        + "\n"
+    )
 
 
 def start_line(what: list[str], estimate_s: float, workers: int, *, rough=False, cached=False):
