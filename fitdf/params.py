@@ -81,6 +81,11 @@ class ParamSpec:
         ``current``, ``flux_linkage``, ``inductance_per_current``, ...) or ``""``: with a
         core's geometry it maps to a material quantity (permeability, field, induction),
         whose physical limits then set the bounds.
+    limits : tuple of float, optional
+        The range no value of the parameter can physically leave (a fraction in ``(0, 1)``,
+        a width that cannot be negative), when it is narrower than the real line (or, for a
+        ``log`` parameter, the positive numbers). A box widened to test the prior's weight
+        in the evidence stops there (:meth:`fitdf.inference.problem.FitProblem.with_box_scaled`).
     """
 
     name: str
@@ -91,9 +96,14 @@ class ParamSpec:
     equation: str = ""
     log: bool = False
     quantity: str = ""
+    limits: tuple[float, float] | None = None
 
     def __post_init__(self):
         lo, hi = self.bounds
+        if self.limits is not None and not self.limits[0] <= lo < hi <= self.limits[1]:
+            raise ValueError(
+                f"parameter {self.name!r}: bounds {self.bounds} outside its limits {self.limits}"
+            )
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ValueError(f"parameter {self.name!r}: bounds must be finite with lower < upper")
         if not lo <= self.default <= hi:
@@ -106,6 +116,13 @@ class ParamSpec:
             raise ValueError(
                 f"parameter {self.name!r}: log-scaled parameters need a positive lower bound"
             )
+
+    def internal_limits(self) -> tuple[float, float]:
+        """:attr:`limits` in the optimiser's coordinate (infinite where there are none)."""
+        lo, hi = self.limits if self.limits is not None else (-np.inf, np.inf)
+        if self.log:
+            return (np.log10(lo) if lo > 0 else -np.inf, np.log10(hi) if hi > 0 else -np.inf)
+        return float(lo), float(hi)
 
     def to_internal(self, value):
         """Map a value to the optimiser's coordinate (log10 for ``log`` parameters)."""

@@ -8,7 +8,7 @@ laws with different numbers of such parameters moves with it. :func:`prior_sensi
 measures that, by sampling the same posterior under the box halved (about the best fit, kept
 inside the box) and doubled (about the box's centre) in internal coordinates
 (:meth:`fitdf.inference.problem.FitProblem.with_box_scaled`; decades for log-scaled
-parameters).
+parameters), the doubled box stopping at each parameter's physical limits.
 """
 
 from __future__ import annotations

@@ -235,14 +235,19 @@ class FitProblem:
         """A copy whose free parameters' boxes are ``factor`` times as wide in internal
         coordinates (``log10`` for log-scaled parameters: a box of decades), centred on the
         box's centre, or on ``about`` (an internal vector) kept inside the old box: how a
-        prior's width moves the evidence. The Gaussian priors stay as they are."""
+        prior's width moves the evidence. A widened box stops at its parameter's physical
+        :attr:`~fitdf.params.ParamSpec.limits` (a fraction stays below 1, a width above 0),
+        so it is less than ``factor`` times as wide there. The Gaussian priors stay as they
+        are."""
         lo, hi = self.internal_bounds().T
         width = (hi - lo) * float(factor)
         centre = 0.5 * (lo + hi)
         if about is not None:
             half = np.minimum(0.5 * width, 0.5 * (hi - lo))
             centre = np.clip(np.asarray(about, float), lo + half, hi - half)
-        new_lo, new_hi = centre - 0.5 * width, centre + 0.5 * width
+        limit_lo, limit_hi = np.array([s.internal_limits() for s in self.specs]).T
+        new_lo = np.maximum(centre - 0.5 * width, limit_lo)
+        new_hi = np.minimum(centre + 0.5 * width, limit_hi)
         specs = []
         for s, a, b in zip(self.specs, new_lo, new_hi):
             bounds = (float(10.0**a), float(10.0**b)) if s.log else (float(a), float(b))

@@ -264,6 +264,7 @@ class CubicHc(HysteresisModel):
             description="end of the dead zone as a fraction of h1, h0/h1 (loop without width below h0)",
             equation="eq 4.11 (0.5/5)",
             log=True,
+            limits=(0.0, 1.0),
         ),
         ParamSpec(
             "bend",
@@ -272,6 +273,7 @@ class CubicHc(HysteresisModel):
             unit="1",
             description="fraction of the linear rise alpha (h1 - h0) that the cubic term beta h1^3 takes back at h1",
             equation="eq 4.8 (eq 4.11: 0.9375/2.7)",
+            limits=(0.0, 1.0),
         ),
     )
 

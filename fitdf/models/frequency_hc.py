@@ -72,6 +72,7 @@ class FrequencyHc(HysteresisModel):
             description="coercive current per hertz (a of eq 3.23)",
             equation="eq 3.23",
             quantity="current_per_hz",
+            limits=(0.0, float("inf")),
         ),
         ParamSpec(
             "hc_b",
@@ -82,6 +83,7 @@ class FrequencyHc(HysteresisModel):
             "dimensionally consistent law)",
             equation="eq 3.23",
             quantity="current_per_hz2",
+            limits=(0.0, float("inf")),
         ),
     )
 

@@ -268,7 +268,14 @@ class JilesAtherton(HysteresisModel):
             quantity="current",
         ),
         ParamSpec(
-            "c", 0.2, (1e-3, 0.99), "", "reversible (wall-bowing) fraction", "JA c", log=True
+            "c",
+            0.2,
+            (1e-3, 0.99),
+            "",
+            "reversible (wall-bowing) fraction",
+            "JA c",
+            log=True,
+            limits=(0.0, 1.0),
         ),
         ParamSpec(
             "zeta",
@@ -278,6 +285,7 @@ class JilesAtherton(HysteresisModel):
             "mean-field ratio alpha_JA M_s / 3 a_JA (<= 1: no spontaneous magnetisation)",
             "JA alpha",
             log=False,
+            limits=(0.0, 1.0),
         ),
     )
 

@@ -163,6 +163,7 @@ class Preisach(HysteresisModel):
             "reversible fraction of lambda_s (sets the squareness)",
             "sec III.1",
             log=True,
+            limits=(0.0, 1.0),
         ),
     )
 

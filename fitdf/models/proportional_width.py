@@ -75,6 +75,7 @@ M_SPEC = ParamSpec(
     unit="1",
     description="loop half-width over amplitude, b = m A",
     equation="eq 4.2, Fig 4.1",
+    limits=(0.0, 1.0),
 )
 
 
