@@ -121,7 +121,8 @@ class ParamSpec:
         """:attr:`limits` in the optimiser's coordinate (infinite where there are none)."""
         lo, hi = self.limits if self.limits is not None else (-np.inf, np.inf)
         if self.log:
-            return (np.log10(lo) if lo > 0 else -np.inf, np.log10(hi) if hi > 0 else -np.inf)
+            # (the upper limit is above the positive bounds: only the lower one can be 0)
+            return (np.log10(lo) if lo > 0 else -np.inf, float(np.log10(hi)))
         return float(lo), float(hi)
 
     def to_internal(self, value):
