@@ -1,18 +1,28 @@
 """The evidence's dependence on the prior box (fitdf.inference.evidence): the box scaled in
-internal coordinates, and the Occam factor a well-determined posterior shows under it."""
+internal coordinates, the evidence of a sub-box from the posterior's draws against a closed
+form, and the Occam factor a well-determined posterior shows under it."""
 
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from scipy.special import ndtr
 from synthetic import mcmc_problem
+from test_nested import R_PRIOR, SMALL, SPECS, gaussian_log_evidence, gaussian_loglike, stub_problem
 
+import fitdf.inference.evidence as evidence
 from fitdf.inference.api import resolve_data
-from fitdf.inference.evidence import prior_sensitivity
+from fitdf.inference.evidence import prior_sensitivity, restricted_log_evidence
 from fitdf.inference.lsq import fit_lsq
-from fitdf.inference.nested import fit_nested
+from fitdf.inference.nested import (
+    PriorTransform,
+    fit_nested,
+    run_nautilus,
+    systematic_resample,
+)
 from fitdf.inference.problem import FitProblem
 from fitdf.models import model_names
 
@@ -44,6 +54,115 @@ def test_the_box_scales_in_internal_coordinates_about_its_centre_or_a_point():
     assert half.specs[i].bounds[0] == pytest.approx(10 ** hlo[i], rel=1e-12)
     # the original is untouched
     np.testing.assert_array_equal(problem.internal_bounds().T, (lo, hi))
+
+
+def _sub_box_prior(bounds):
+    """The prior of ``SPECS`` (``r`` log-normal) on an internal box ``bounds`` ``(P, 2)``."""
+    stub = stub_problem(SPECS, {"r": R_PRIOR})
+    stub.internal_bounds = lambda: np.asarray(bounds, float)
+    return PriorTransform(stub)
+
+
+def test_a_sub_box_evidence_from_the_posteriors_draws_matches_its_closed_form():
+    """A Gaussian likelihood under a uniform, a log-uniform and a truncated-normal prior; the
+    sub-box cuts the first Gaussian at its mean and the third's tail, and narrows the
+    truncated normal's box (so its normalisation changes). The evidence restricted from the
+    full box's draws matches the sub-box's closed form within three of its errors, and
+    the share inside within three binomial errors."""
+    full = PriorTransform(stub_problem(SPECS, {"r": R_PRIOR}))
+    mean, sd = np.array([0.4, 0.7, 2.1]), np.array([0.05, 0.1, 0.08])
+    sub_bounds = np.array([[0.4, 1.5], [0.0, 1.5], [1.8, 2.2]])
+    sub = _sub_box_prior(sub_bounds)
+    ns, error, *_ = run_nautilus(full, gaussian_loglike(mean, sd), 3, seed=0, **SMALL)
+    points, log_w, _ = ns.posterior()
+    w = np.exp(log_w - log_w.max())
+    draws = points[systematic_resample(w / w.sum(), 4000, np.random.default_rng(0))]
+    log_z, shift_error, share = restricted_log_evidence(ns.log_z, draws, ns.n_eff, full, sub)
+
+    truth = gaussian_log_evidence(sub_bounds, {2: R_PRIOR}, mean, sd)
+    truth_full = gaussian_log_evidence(full.bounds, {2: R_PRIOR}, mean, sd)
+    sigma = math.hypot(error, shift_error)
+    assert 0.02 < shift_error < 0.1
+    assert abs(log_z - truth) <= 3 * sigma, (log_z, truth, sigma)
+    # the share: the posterior's mass in the sub-box, a product of normal masses (the third
+    # parameter's posterior is the product of likelihood and prior normals)
+    v = 1.0 / (1.0 / sd[2] ** 2 + 1.0 / R_PRIOR[1] ** 2)
+    mu, w2 = v * (mean[2] / sd[2] ** 2 + R_PRIOR[0] / R_PRIOR[1] ** 2), math.sqrt(v)
+    mass = [
+        (ndtr((b - m) / s) - ndtr((a - m) / s)) / (ndtr((B - m) / s) - ndtr((A - m) / s))
+        for (a, b), (A, B), m, s in zip(sub_bounds, full.bounds, [*mean[:2], mu], [*sd[:2], w2])
+    ]
+    expected_share = float(np.prod(mass))
+    assert 0.3 < expected_share < 0.6
+    assert abs(share - expected_share) <= 3 * math.sqrt(share * (1 - share) / ns.n_eff)
+    # and the identity: the restricted evidence is the full one times the share over the
+    # prior mass ratio, so its shift from the full closed form is the share's logarithm plus
+    # the ratio of the densities
+    assert truth - truth_full == pytest.approx(
+        math.log(expected_share)
+        + float(sub.log_density(sub_bounds.mean(axis=1)[None])[0])
+        - float(full.log_density(sub_bounds.mean(axis=1)[None])[0]),
+        abs=1e-9,
+    )
+    with pytest.raises(ValueError, match="not inside"):
+        restricted_log_evidence(ns.log_z, draws, ns.n_eff, sub, full)
+
+
+class _Posterior:
+    """What :func:`prior_sensitivity` reads of a nested fit: its problem, best point, draws
+    and diagnostics."""
+
+    def __init__(self, problem, internal, draws):
+        self.problem, self.internal = problem, internal
+        self.samples = draws[:, None, :]
+        self.diagnostics = {
+            "log_evidence": -10.0,
+            "log_evidence_error": 0.05,
+            "n_effective": 800.0,
+            "converged": True,
+        }
+
+
+def test_the_halved_box_is_restricted_from_the_draws_or_sampled_when_few_fall_inside(
+    monkeypatch,
+):
+    """Draws about the best point: the halved box holds them all and needs no sampling
+    (shift: ln 2 per uniform dimension, the prior density doubling there); draws far from
+    it: too few inside, so the halved box is sampled, as the doubled one always is."""
+    problem = mcmc_problem()
+    lo, hi = problem.internal_bounds().T
+    centre = 0.5 * (lo + hi)
+    rng = np.random.default_rng(0)
+    sampled = []
+
+    def fake_fit(prob, lsq, seed=0, **options):
+        sampled.append(prob.internal_bounds())
+        return SimpleNamespace(
+            diagnostics={"log_evidence": -11.0, "log_evidence_error": 0.07, "converged": True}
+        )
+
+    monkeypatch.setattr(evidence, "fit_nested", fake_fit)
+    near = centre + 0.01 * (hi - lo) * rng.standard_normal((2000, lo.size))
+    s = prior_sensitivity(_Posterior(problem, centre, near), lsq=None, seed=3)
+    half, double = s["boxes"]
+    assert half["estimate"] == "restricted" and half["posterior_share"] == 1.0
+    prior, sub = PriorTransform(problem), PriorTransform(problem.with_box_scaled(0.5, centre))
+    expect = float(sub.log_density(centre[None])[0] - prior.log_density(centre[None])[0])
+    uniform = len(problem.names) - len(problem.priors)
+    assert expect > (uniform - 0.5) * math.log(2)  # ln 2 per uniform dimension, and more
+    assert half["shift"] == pytest.approx(expect, abs=1e-12) and half["shift_error"] == 0.0
+    assert double["estimate"] == "sampled" and double["shift"] == pytest.approx(-1.0)
+    assert len(sampled) == 1
+    np.testing.assert_allclose(
+        sampled[0], problem.with_box_scaled(2.0).internal_bounds(), rtol=1e-12
+    )
+
+    # three draws of 2000 in the half box about the best point: its share's error is above 0.3
+    far = np.repeat(lo[None] + 0.02 * (hi - lo), 2000, axis=0)
+    far[:3] = centre
+    s = prior_sensitivity(_Posterior(problem, centre, far), lsq=None, seed=3)
+    assert [b["estimate"] for b in s["boxes"]] == ["sampled", "sampled"]
+    assert len(sampled) == 3
 
 
 @pytest.mark.slow

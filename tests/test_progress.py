@@ -292,14 +292,40 @@ def test_the_cost_table_is_the_committed_reports():
     )
 
 
-def test_a_posterior_with_its_prior_sensitivity_is_planned_three_times_as_long():
-    """``--full``: the best two laws of each block also sample the box halved and doubled in
-    the same job, so each of those jobs is planned as three posteriors."""
+def test_a_posterior_with_its_prior_sensitivity_is_planned_twice_as_long():
+    """``--full``: the best two laws of each block also sample the box doubled in the same job
+    (the halved box comes from the posterior's draws), so each of those jobs is planned as
+    two posteriors."""
     full = ReportSettings.for_run(full=True)
     phases, _ = _plan(full)
     nested = sorted((s for _, s in phases[1].planned if _ == "nested"), reverse=True)
     assert len(nested) == 21
     b4 = costs.unknown_laws("nested", "B.4", 3)
-    planned_b4 = [3 * b4[0][1], 3 * b4[1][1], b4[2][1]]
+    planned_b4 = [2 * b4[0][1], 2 * b4[1][1], b4[2][1]]
     for s in planned_b4:
         assert any(abs(s - n) < 1e-9 for n in nested), (s, nested)
+
+
+def test_the_cost_table_counts_the_runs_a_posterior_job_sampled():
+    """A posterior job with its prior's sensitivity enters the table at its seconds over the
+    runs it sampled: a box restricted from its draws is no run; a box without ``estimate``
+    (a record from before restriction) was sampled."""
+
+    def job(boxes):
+        return {"diagnostics": {"prior_sensitivity": {"boxes": boxes}}}
+
+    results = {
+        "timing": {"jobs_s": {"nested B.3 preisach": 300.0, "nested B.3 cubic_hc": 300.0,
+                              "nested B.3 rayleigh": 300.0, "lsq B.3 preisach": 10.0}},
+        "blocks": {"B.3": {"fits_mcmc": {
+            "preisach": job([{"estimate": "restricted"}, {"estimate": "sampled"}]),
+            "cubic_hc": job([{}, {}]),
+            "rayleigh": {"diagnostics": {}},
+        }}},
+    }  # fmt: skip
+    assert costs._parse(costs.table_text(results)) == {
+        "nested B.3 preisach": 150.0,
+        "nested B.3 cubic_hc": 100.0,
+        "nested B.3 rayleigh": 300.0,
+        "lsq B.3 preisach": 10.0,
+    }

@@ -212,6 +212,13 @@ def _posterior_blocks(rec, names):
     return out
 
 
+#: How a prior box's evidence was estimated (``prior_sensitivity``'s ``estimate``).
+_HOW_ESTIMATED = {
+    "restricted": "the posterior's draws inside it",
+    "sampled": "sampled",
+}
+
+
 def _nested_blocks(rec, fits, names):
     rows, unconverged, sensitivity = [], [], []
     for model, fit in fits.items():
@@ -238,7 +245,10 @@ def _nested_blocks(rec, fits, names):
                     law(names, model),
                     box["factor"],
                     f"{fmt(box['log_evidence'], 5)} +- {fmt(box['log_evidence_error'], 2)}",
-                    box["shift"],
+                    box["shift"]
+                    if box.get("shift_error") is None
+                    else f"{fmt(box['shift'], 3)} +- {fmt(box['shift_error'], 2)}",
+                    _HOW_ESTIMATED.get(box.get("estimate", "sampled")),
                 ]
             )
     out = [
@@ -279,11 +289,13 @@ def _nested_blocks(rec, fits, names):
     if sensitivity:
         out += [
             P(
-                "How the evidence depends on the prior: the same posterior sampled with every "
-                "parameter's box halved (about the best fit) and doubled (about its centre); a shift "
-                "of -d ln(factor) is the Occam factor of d parameters the data determine:"
+                "How the evidence depends on the prior: the evidence with every parameter's box "
+                "halved (about the best fit) and doubled (about its centre); a shift of "
+                "-d ln(factor) is the Occam factor of d parameters the data determine. A box inside "
+                "the prior's needs no new sampling: its evidence is the posterior's share inside it "
+                "times the ratio of the two priors' densities there:"
             ),
-            TABLE(["law", "box width", "ln evidence", "shift"], sensitivity),
+            TABLE(["law", "box width", "ln evidence", "shift", "how"], sensitivity),
         ]
     return out
 

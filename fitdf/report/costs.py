@@ -5,7 +5,7 @@ Expected seconds
     :data:`_TABLE` holds every job of the committed report (``reports/results.json``,
     ``timing.jobs_s``: the seconds each job took) as it ran there, on
     :data:`COMMITTED_RUN`'s machine; a posterior job that sampled its prior's sensitivity
-    too is entered as one of its three runs (:func:`table_text`). A job the table lacks --
+    too is entered as one of the runs it sampled (:func:`table_text`). A job the table lacks --
     another law, block or cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind on
     its block (or direction), else of its kind. The report's progress display scales these by
     what this machine measures as jobs finish (:mod:`fitdf.report.progress`). After the
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import statistics
 
-from fitdf.inference.evidence import SENSITIVITY_FACTORS
+from fitdf.inference.evidence import SAMPLED_FACTORS
 from fitdf.plots.thesis import THESIS_GRAPHS
 from fitdf.report.progress import Phase, duration_text, schedule_length
 
@@ -370,9 +370,9 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
     for b in blocks:
         n_post = n_mcmc if b in posterior else 0
         posteriors = unknown_laws(kind, b, n_post)
-        # a posterior with the prior's sensitivity samples twice more (the box halved and
-        # doubled) in the same job
-        posteriors = [(k, s * (1 + len(SENSITIVITY_FACTORS) * (i < n_sens))) for i, (k, s) in
+        # a posterior with the prior's sensitivity samples once more (the box doubled; the
+        # halved box is restricted from its draws) in the same job
+        posteriors = [(k, s * (1 + len(SAMPLED_FACTORS) * (i < n_sens))) for i, (k, s) in
                       enumerate(posteriors)]  # fmt: skip
         second += posteriors + unknown_laws("cv", b, n_cv)
         if settings.approximate_chain:
@@ -450,21 +450,22 @@ def rough(settings) -> bool:
 
 def _sampler_runs(results: dict, key: str) -> int:
     """How many times a report job sampled: 1, or for a posterior with its prior's
-    sensitivity 1 plus the boxes it sampled again."""
+    sensitivity 1 plus the boxes it sampled again (not those restricted from its draws)."""
     w = key.split()
     if w[0] != "nested":
         return 1
     fit = results["blocks"].get(w[1], {}).get("fits_mcmc", {}).get(" ".join(w[2:]), {})
     boxes = ((fit.get("diagnostics") or {}).get("prior_sensitivity") or {}).get("boxes") or []
-    return 1 + len(boxes)
+    return 1 + sum(b.get("estimate", "sampled") == "sampled" for b in boxes)
 
 
 def table_text(results: dict) -> str:
     """The text of :data:`_TABLE` for a report's results record (``results.json``).
 
-    A posterior job that also sampled the prior box halved and doubled is entered at its
-    seconds over the three runs (a third each: the plan multiplies them back for such a
-    job), so that the table holds one posterior's seconds in every ``nested`` row.
+    A posterior job that also sampled its prior's box again (doubled, and halved where the
+    posterior's draws could not give it) is entered at its seconds over its runs (the plan
+    multiplies them back for such a job), so that the table holds one posterior's seconds in
+    every ``nested`` row.
     """
     jobs = results["timing"]["jobs_s"]
     width = max(map(len, jobs))
