@@ -136,33 +136,93 @@ def test_the_halved_box_is_restricted_from_the_draws_or_sampled_when_few_fall_in
     sampled = []
 
     def fake_fit(prob, lsq, seed=0, **options):
+        """A run whose draws all sit at the old box's centre, with ``ln Z = -10 + gap``."""
         sampled.append(prob.internal_bounds())
         return SimpleNamespace(
-            diagnostics={"log_evidence": -11.0, "log_evidence_error": 0.07, "converged": True}
+            diagnostics={
+                "log_evidence": -10.0 + gap,
+                "log_evidence_error": 0.07,
+                "converged": True,
+                "n_effective": 500.0,
+            },
+            samples=np.repeat(centre[None, None], 600, axis=0),
         )
 
     monkeypatch.setattr(evidence, "fit_nested", fake_fit)
     near = centre + 0.01 * (hi - lo) * rng.standard_normal((2000, lo.size))
+    prior, sub = PriorTransform(problem), PriorTransform(problem.with_box_scaled(0.5, centre))
+    wide = PriorTransform(problem.with_box_scaled(2.0))
+    occam_half = float(sub.log_density(centre[None])[0] - prior.log_density(centre[None])[0])
+    occam_double = float(wide.log_density(centre[None])[0] - prior.log_density(centre[None])[0])
+    uniform = len(problem.names) - len(problem.priors)
+    assert occam_half > (uniform - 0.5) * math.log(2)  # ln 2 per uniform dimension, and more
+    assert occam_double < 0
+
+    gap = occam_double  # the wider run agrees with the bound: all its draws inside the old box
     s = prior_sensitivity(_Posterior(problem, centre, near), lsq=None, seed=3)
     half, double = s["boxes"]
     assert half["estimate"] == "restricted" and half["posterior_share"] == 1.0
-    prior, sub = PriorTransform(problem), PriorTransform(problem.with_box_scaled(0.5, centre))
-    expect = float(sub.log_density(centre[None])[0] - prior.log_density(centre[None])[0])
-    uniform = len(problem.names) - len(problem.priors)
-    assert expect > (uniform - 0.5) * math.log(2)  # ln 2 per uniform dimension, and more
-    assert half["shift"] == pytest.approx(expect, abs=1e-12) and half["shift_error"] == 0.0
-    assert double["estimate"] == "sampled" and double["shift"] == pytest.approx(-1.0)
+    assert half["shift"] == pytest.approx(occam_half, abs=1e-12) and half["shift_error"] == 0.0
+    # no draw of the wider run outside the old box: the shift is the Occam factor, exactly
+    assert double["estimate"] == "widened" and double["consistent"] and double["converged"]
+    assert double["shift"] == pytest.approx(occam_double, abs=1e-12)
+    assert double["shift_error"] == 0.0 and double["share_outside"] == 0.0
+    assert double["sampled_log_evidence"] == -10.0 + occam_double
     assert len(sampled) == 1
     np.testing.assert_allclose(
         sampled[0], problem.with_box_scaled(2.0).internal_bounds(), rtol=1e-12
     )
 
-    # three draws of 2000 in the half box about the best point: its share's error is above 0.3
+    # three draws of 2000 in the half box about the best point: its share's error is above
+    # 0.3, so it is sampled; a wider run 5 nats below the bound missed the posterior
     far = np.repeat(lo[None] + 0.02 * (hi - lo), 2000, axis=0)
     far[:3] = centre
+    gap = occam_double - 5.0
     s = prior_sensitivity(_Posterior(problem, centre, far), lsq=None, seed=3)
-    assert [b["estimate"] for b in s["boxes"]] == ["sampled", "sampled"]
+    assert [b["estimate"] for b in s["boxes"]] == ["sampled", "widened"]
     assert len(sampled) == 3
+    double = s["boxes"][1]
+    assert not double["consistent"] and not double["converged"]
+    assert double["lower_bound"] == pytest.approx(-10.0 + occam_double)
+    assert double["log_evidence"] >= double["lower_bound"]
+
+
+def test_a_widened_box_evidence_is_stratified_and_matches_its_closed_form():
+    """A Gaussian likelihood that the prior's box cuts (the first mean 0.1 from its upper edge
+    at 2, sd 0.08) and a box twice as wide in that parameter: the part inside the old box
+    is exact from its evidence, the part outside comes from the wider run's draws; the sum
+    matches the wider box's closed form within three of its errors, and a wider run that
+    reports an evidence far below the part inside is not consistent."""
+    mean, sd = np.array([1.9, 0.7, 2.1]), np.array([0.08, 0.1, 0.08])
+    full = PriorTransform(stub_problem(SPECS, {"r": R_PRIOR}))
+    wide_bounds = full.bounds.copy()
+    wide_bounds[0] = [-1.0, 5.0]
+    wide = _sub_box_prior(wide_bounds)
+    loglike = gaussian_loglike(mean, sd)
+    ns, error, *_ = run_nautilus(full, loglike, 3, seed=0, **SMALL)
+    nw, wide_error, *_ = run_nautilus(wide, loglike, 3, seed=1, **SMALL)
+    points, log_w, _ = nw.posterior()
+    w = np.exp(log_w - log_w.max())
+    draws = points[systematic_resample(w / w.sum(), 4000, np.random.default_rng(0))]
+    out = evidence.widened_log_evidence(
+        ns.log_z, error, full, wide, nw.log_z, wide_error, draws, nw.n_eff
+    )
+    truth = gaussian_log_evidence(wide_bounds, {2: R_PRIOR}, mean, sd)
+    truth_in = gaussian_log_evidence(full.bounds, {2: R_PRIOR}, mean, sd) + math.log(3 / 6)
+    # the posterior's share outside the old box: the normal's tail beyond 2
+    tail = float(1 - ndtr((2.0 - mean[0]) / sd[0]))
+    assert 0.05 < tail < 0.2
+    assert abs(out["share_outside"] - tail) <= 3 * math.sqrt(tail * (1 - tail) / nw.n_eff)
+    assert out["lower_bound"] == pytest.approx(ns.log_z + math.log(0.5), abs=1e-12)
+    assert abs(out["lower_bound"] - truth_in) <= 3 * error
+    assert out["consistent"] and 0 < out["log_evidence_error"] < 0.1
+    assert abs(out["log_evidence"] - truth) <= 3 * out["log_evidence_error"], (out, truth)
+    missed = evidence.widened_log_evidence(
+        ns.log_z, error, full, wide, ns.log_z - 20, wide_error, draws, nw.n_eff
+    )
+    assert not missed["consistent"] and missed["log_evidence"] >= missed["lower_bound"]
+    with pytest.raises(ValueError, match="does not hold"):
+        evidence.widened_log_evidence(ns.log_z, error, wide, full, 0.0, 0.1, draws, nw.n_eff)
 
 
 @pytest.mark.slow

@@ -231,32 +231,37 @@ def test_a_quick_run_names_no_mcmc():
 def test_the_committed_run_is_planned_as_it_ran():
     """At the committed machine's speed the plan of the command that made the committed report
     takes about what that report took: its own jobs, on its 2 workers."""
-    assert costs.COMMITTED_RUN["command"] == "fitdf report"
-    settings = ReportSettings.for_run()
+    assert costs.COMMITTED_RUN["command"] == "fitdf report --full"
+    settings = ReportSettings.for_run(full=True)
     phases, what = _plan(settings)
-    # (the second phase: 6 posteriors, 14 cross-validations, 14 rate-dependent refits, 4
+    # (the second phase: 21 posteriors, 14 cross-validations, 14 rate-dependent refits, 4
     # fits to the rows as printed, 8 cross-impedance predictions and the limit cycles)
-    assert [len(p.planned) for p in phases] == [56, 47, 12]
+    assert [len(p.planned) for p in phases] == [56, 62, 12]
     assert what[:3] == [
         "56 least-squares fits (8 laws on 7 blocks)",
-        "6 posteriors and evidence (nested sampling)",
+        "21 posteriors and evidence (nested sampling), 14 evidences again with the prior box "
+        "halved and doubled",
         "14 cross-validations (56 leave-one-frequency-out folds)",
     ]
-    assert what[-1] == "up to 37 figures"
+    assert what[-1] == "up to 41 figures"
     total = costs.estimate(phases, 2)
     assert total == pytest.approx(costs.COMMITTED_RUN["total_s"], rel=0.03)
     assert not costs.rough(settings) and costs.rough(ReportSettings.for_run(quick=True))
     line = costs.start_line(what, total, 2)
-    assert "About 20 min with 2 workers" in line and "20 min for `fitdf report`" in line
+    assert "About 69 min with 2 workers" in line and "69 min for `fitdf report --full`" in line
     assert "first jobs finish" in line
+    # the default run, from the same jobs: its six posteriors are among them
+    default, _ = _plan(ReportSettings.for_run())
+    assert [len(p.planned) for p in default] == [56, 47, 12]
+    assert 15 * 60 < costs.estimate(default, 2) < 20 * 60
 
 
 def test_expected_seconds_of_jobs_the_table_lacks():
     # a job of the committed report: its own time; another law: its kind's mean on the block
-    assert costs.expected_seconds(("nested", "B.4", "preisach")) == 221.49
-    b4 = [221.49, 138.43]
-    assert costs.expected_seconds(("nested", "B.4", "rayleigh")) == pytest.approx(sum(b4) / 2)
-    assert costs.unknown_laws("nested", "B.4", 2) == [("nested", s) for s in b4]
+    assert costs.expected_seconds(("nested", "B.4", "preisach")) == 273.13
+    b4 = [273.13, 135.24, 52.98]
+    assert costs.expected_seconds(("nested", "B.4", "rayleigh")) == pytest.approx(sum(b4) / 3)
+    assert costs.unknown_laws("nested", "B.4", 3) == [("nested", s) for s in b4]
     # a kind the committed report did not run: a multiple of the block's least-squares fits
     lsq_b5 = [s for k, s in costs._SECONDS.items() if k.startswith("B.5 ")]
     assert costs.expected_seconds(("mcmc", "B.5", "preisach")) == pytest.approx(

@@ -569,8 +569,21 @@ def test_settings_line_states_the_posteriors_and_cv_that_ran():
         f"{outline._networks(settings.get('nested_networks', 4))} per bound, up to "
         f"{settings['nested_max_evaluations']:,} likelihood evaluations; converged at 400 "
         "effective draws and an evidence error of at most 0.3) for the best "
-        f"{settings['mcmc_top']} least-squares models of " + ", ".join(settings["posterior_blocks"])
+        f"{settings['mcmc_top']} least-squares models of "
+        + (", ".join(settings["posterior_blocks"] or ()) or "each block")
     ) in line
+    if settings.get("sensitivity_top"):
+        assert (
+            "the evidence again with the prior box halved and doubled for the best "
+            f"{settings['sensitivity_top']} of each block"
+        ) in line
+    # the default run's: the posteriors on the core blocks
+    default = {**settings, "posterior_blocks": ["B.4", "permalloy-joint"], "sensitivity_top": 0}
+    (_, items), *_ = outline._settings_text(
+        {"settings": default, "timing": {}, "fitdf_version": "x", "seed": 0}
+    )
+    line = next(i for i in items if i.startswith("least squares"))
+    assert "least-squares models of B.4, permalloy-joint;" in line and "halved" not in line
     assert "each fold polished from the block's optimum" in line
     # a report sampled by emcee: its step limits
     emcee = {**settings, "sampler": "emcee"}
@@ -703,3 +716,44 @@ def test_the_plan_of_a_run_counts_the_jobs_and_figures_it_made(tiny_report, tiny
     assert planned == ran and ran["nested"] == 2 and ran["figures"] == 4
     pngs = list((tiny_report / "figures").rglob("*.png"))
     assert what[-1] == f"up to {len(pngs)} figures"  # every block's best law was sampled
+
+
+def test_a_wider_box_whose_run_missed_the_posterior_is_flagged_not_reported():
+    """The sensitivity table marks a doubled box whose own run fell below the least evidence
+    the box allows: stated by ``prior_sensitivity`` (``consistent``), or, for a record
+    without it, the prior's evidence less the Occam factor of the volume (``P ln 2``)."""
+
+    def fit(boxes, n_params=4):
+        return {
+            "diagnostics": {
+                "n_likelihood_evaluations": 1000,
+                "n_effective": 500.0,
+                "log_evidence": 100.0,
+                "log_evidence_error": 0.04,
+                "converged": True,
+                "prior_sensitivity": {"boxes": boxes},
+            },
+            "metrics": {"n_params": n_params},
+        }
+
+    def text(fits):
+        return json.dumps(block_outline._nested_blocks({}, fits, {}))
+
+    good = {"factor": 2.0, "log_evidence": 97.5, "log_evidence_error": 0.05, "shift": -2.5,
+            "shift_error": 0.05, "converged": True, "estimate": "widened", "consistent": True,
+            "lower_bound": 97.23, "sampled_log_evidence": 97.4}  # fmt: skip
+    missed = {**good, "log_evidence": 97.23, "shift": -2.77, "consistent": False,
+              "converged": False, "sampled_log_evidence": 80.0}  # fmt: skip
+    assert "Missed" not in text({"a": fit([good])})
+    out = text({"a": fit([missed])})
+    assert "Missed: `a`, box width 2: its run's ln evidence 80" in out and "97.23" in out
+    # an older record (no bound stated): 4 parameters allow a fall of 4 ln 2 = 2.77 at most
+    old = {"factor": 2.0, "log_evidence": 97.3, "log_evidence_error": 0.05, "shift": -2.7,
+           "converged": True}  # fmt: skip
+    assert "Missed" not in text({"a": fit([old])})
+    out = text({"a": fit([{**old, "log_evidence": 90.0, "shift": -10.0}])})
+    assert "Missed: `a`, box width 2: its run's ln evidence 90" in out
+    assert "97.2" in out  # 100 - 4 ln 2
+    halved = {"factor": 0.5, "log_evidence": 102.0, "log_evidence_error": 0.05, "shift": 2.0,
+              "converged": True, "estimate": "restricted"}  # fmt: skip
+    assert "Missed" not in text({"a": fit([halved])})

@@ -15,7 +15,11 @@ restricted to a sub-box ``B'`` has the evidence ``Z' = Z P(B' | data) pi(x) / pi
 ``x`` in ``B'``; the two densities differ there by a constant), where ``P(B' | data)`` is
 the share of the posterior's draws inside ``B'``. It is exact but for that share's sampling
 error, so the halved box is sampled afresh only where few draws fall inside it. A box wider
-than the prior's holds likelihood the posterior's draws never saw, and is sampled.
+than the prior's holds likelihood the posterior's draws never saw, and is sampled; its
+evidence is stratified (:func:`widened_log_evidence`): the part inside the prior's box is
+exact from ``Z`` (``Z pi''(x) / pi(x)``), which is also a lower bound on the whole, and only
+the part outside comes from the wider run's draws. A wider run whose own evidence falls below
+that bound has missed the posterior the prior's box holds, and is not converged.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, PriorTransform, fit_n
 __all__ = [
     "prior_sensitivity",
     "restricted_log_evidence",
+    "widened_log_evidence",
     "SENSITIVITY_FACTORS",
     "SAMPLED_FACTORS",
 ]
@@ -79,6 +84,81 @@ def restricted_log_evidence(log_evidence, draws, n_effective, prior, sub_prior):
     return float(log_evidence + np.log(share) + log_ratio), error, share
 
 
+def _log_density_ratio(prior, other, x) -> float:
+    """``ln other(x) - ln prior(x)`` at one internal vector ``x`` inside both boxes."""
+    x = np.asarray(x, float)[None]
+    return float(other.log_density(x)[0] - prior.log_density(x)[0])
+
+
+def widened_log_evidence(
+    log_evidence,
+    log_evidence_error,
+    prior,
+    wide_prior,
+    wide_log_evidence,
+    wide_log_evidence_error,
+    wide_draws,
+    wide_n_effective,
+) -> dict:
+    """``ln Z''`` of a prior widened to a box that holds its own, stratified by the two boxes.
+
+    ``Z'' = Z_in + Z_out``: the part inside the prior's box is exact from its evidence,
+    ``Z_in = Z pi''(x) / pi(x)`` (any ``x`` there; a constant ratio, the restriction of
+    :func:`restricted_log_evidence` read backwards), and it bounds ``Z''`` from below; the
+    part outside is the wider run's evidence times its draws' share outside the prior's box.
+
+    Parameters
+    ----------
+    log_evidence, log_evidence_error : float
+        ``ln Z`` under ``prior`` and its error.
+    prior, wide_prior : PriorTransform
+        The prior, and the same prior on a box holding its box.
+    wide_log_evidence, wide_log_evidence_error : float
+        The wider run's own ``ln Z''`` and its error.
+    wide_draws : array ``(n, P)``
+        Equal-weight draws of the wider run's posterior (internal coordinates).
+    wide_n_effective : float
+        Their effective number.
+
+    Returns
+    -------
+    dict
+        ``log_evidence`` and ``log_evidence_error`` (stratified), ``shift_error`` (of
+        ``ln Z'' - ln Z``, in which the part inside cancels), ``lower_bound``
+        (``ln Z_in``), ``share_outside`` (the wider posterior's share outside the prior's box),
+        and ``consistent``: False when the wider run's own ``ln Z''`` is more than three
+        errors below ``lower_bound`` (it missed the posterior the prior's box holds, and its
+        draws outside cannot be trusted either).
+    """
+    lo, hi = prior.lo, prior.lo + prior.width
+    slack = 1e-9 * prior.width
+    if np.any(wide_prior.lo > lo + slack) or np.any(wide_prior.lo + wide_prior.width < hi - slack):
+        raise ValueError("the wider box does not hold the prior's box")
+    draws = np.asarray(wide_draws, float).reshape(-1, prior.ndim)
+    inside = np.all((draws >= lo) & (draws <= hi), axis=1)
+    share_out = float(1.0 - np.mean(inside))
+    log_in = float(log_evidence + _log_density_ratio(prior, wide_prior, lo + 0.5 * prior.width))
+    if share_out > 0.0:
+        log_out = float(wide_log_evidence + np.log(share_out))
+        binomial = (1.0 - share_out) / (share_out * wide_n_effective)
+        var_out = wide_log_evidence_error**2 + binomial
+    else:
+        log_out, var_out = -np.inf, 0.0
+    log_z = float(np.logaddexp(log_in, log_out))
+    w_in, w_out = np.exp(log_in - log_z), np.exp(log_out - log_z)
+    error = float(np.sqrt(w_in**2 * log_evidence_error**2 + w_out**2 * var_out))
+    gap = np.hypot(log_evidence_error, wide_log_evidence_error)
+    return {
+        "log_evidence": log_z,
+        "log_evidence_error": error,
+        # ln(Z''/Z) = ln(pi''/pi + Z_out/Z): only the part outside carries error
+        "shift_error": float(w_out * np.sqrt(var_out + log_evidence_error**2)),
+        "lower_bound": log_in,
+        "share_outside": share_out,
+        "consistent": bool(wide_log_evidence >= log_in - 3.0 * gap),
+    }
+
+
 def prior_sensitivity(result, lsq, seed=0, factors=SENSITIVITY_FACTORS, **nested) -> dict:
     """The evidence of ``result``'s problem with its prior box scaled by each of ``factors``.
 
@@ -86,7 +166,8 @@ def prior_sensitivity(result, lsq, seed=0, factors=SENSITIVITY_FACTORS, **nested
     (:func:`restricted_log_evidence`) where that is as accurate as the convergence rule asks
     of a sampled evidence (its error at most
     :data:`~fitdf.inference.nested.MAX_LOG_EVIDENCE_ERROR`), and sampled otherwise; a wider
-    box is sampled.
+    box is sampled and its evidence stratified (:func:`widened_log_evidence`): converged
+    only if its run converged and did not miss the prior's posterior.
 
     Parameters
     ----------
@@ -106,9 +187,10 @@ def prior_sensitivity(result, lsq, seed=0, factors=SENSITIVITY_FACTORS, **nested
     -------
     dict
         ``{"log_evidence": ..., "log_evidence_error": ..., "boxes": [{"factor", "log_evidence",
-        "log_evidence_error", "converged", "shift", "estimate"}]}``, ``shift`` the change of
-        ``ln Z`` from the prior's, ``estimate`` ``"restricted"`` (from ``result``'s draws) or
-        ``"sampled"``.
+        "log_evidence_error", "converged", "shift", "shift_error", "estimate"}]}``, ``shift``
+        the change of ``ln Z`` from the prior's, ``estimate`` ``"restricted"`` (from
+        ``result``'s draws), ``"sampled"`` or ``"widened"`` (stratified; with the fields of
+        :func:`widened_log_evidence` and the run's own ``sampled_log_evidence``).
     """
     base = result.diagnostics
     prior = PriorTransform(result.problem)
@@ -138,20 +220,41 @@ def prior_sensitivity(result, lsq, seed=0, factors=SENSITIVITY_FACTORS, **nested
                     }
                 )
                 continue
-        again = fit_nested(problem, lsq, seed=seed, **nested).diagnostics
-        boxes.append(
-            {
-                "factor": float(f),
-                "log_evidence": again["log_evidence"],
-                "log_evidence_error": again["log_evidence_error"],
-                "converged": bool(again["converged"]),
-                "shift": again["log_evidence"] - base["log_evidence"],
-                "shift_error": float(
-                    np.hypot(again["log_evidence_error"], base["log_evidence_error"])
-                ),
-                "estimate": "sampled",
-            }
+        run = fit_nested(problem, lsq, seed=seed, **nested)
+        again = run.diagnostics
+        record = {
+            "factor": float(f),
+            "log_evidence": again["log_evidence"],
+            "log_evidence_error": again["log_evidence_error"],
+            "converged": bool(again["converged"]),
+            "estimate": "sampled",
+        }
+        if f > 1:
+            wide = widened_log_evidence(
+                base["log_evidence"],
+                base["log_evidence_error"],
+                prior,
+                PriorTransform(problem),
+                again["log_evidence"],
+                again["log_evidence_error"],
+                run.samples.reshape(-1, problem.ndim),
+                again["n_effective"],
+            )
+            record.update(
+                {
+                    "sampled_log_evidence": again["log_evidence"],
+                    "sampled_log_evidence_error": again["log_evidence_error"],
+                    **wide,
+                    "converged": bool(again["converged"] and wide["consistent"]),
+                    "estimate": "widened",
+                }
+            )
+        record["shift"] = record["log_evidence"] - base["log_evidence"]
+        record.setdefault(
+            "shift_error",
+            float(np.hypot(record["log_evidence_error"], base["log_evidence_error"])),
         )
+        boxes.append(record)
     return {
         "log_evidence": base["log_evidence"],
         "log_evidence_error": base["log_evidence_error"],

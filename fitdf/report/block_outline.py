@@ -7,6 +7,8 @@ the parameter tables and the MCMC diagnostics of one block of ``results.json``
 
 from __future__ import annotations
 
+import math
+
 from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, law
 from fitdf.report.findings import OUTSIDE
 
@@ -216,11 +218,28 @@ def _posterior_blocks(rec, names):
 _HOW_ESTIMATED = {
     "restricted": "the posterior's draws inside it",
     "sampled": "sampled",
+    "widened": "the prior's box exact, sampled outside it",
 }
 
 
+def _missed_bound(box, n_params):
+    """The lower bound on a wider box's ``ln Z`` that its own run fell below (it missed the
+    posterior the prior's box holds), or None. A record of ``prior_sensitivity`` states
+    the exact bound; an older one is checked against the Occam factor of the box's volume
+    (``ln Z`` can fall by at most ``n_params ln(factor)``, exact for uniform priors)."""
+    if box["factor"] <= 1:
+        return None
+    if "consistent" in box:
+        return None if box["consistent"] else box["lower_bound"]
+    error = box.get("shift_error") or box["log_evidence_error"]
+    least = -n_params * math.log(box["factor"])
+    if box["shift"] < least - 3 * error:
+        return box["log_evidence"] - box["shift"] + least
+    return None
+
+
 def _nested_blocks(rec, fits, names):
-    rows, unconverged, sensitivity = [], [], []
+    rows, unconverged, sensitivity, missed = [], [], [], []
     for model, fit in fits.items():
         d = fit["diagnostics"]
         rows.append(
@@ -240,6 +259,15 @@ def _nested_blocks(rec, fits, names):
                 "report's limit: its band, corner plot and intervals are not drawn as results"
             )
         for box in (d.get("prior_sensitivity") or {}).get("boxes") or []:
+            bound = _missed_bound(box, (fit.get("metrics") or {}).get("n_params", 0))
+            if bound is not None:
+                run = box.get("sampled_log_evidence", box["log_evidence"])
+                missed.append(
+                    f"{law(names, model)}, box width {fmt(box['factor'])}: its run's ln evidence "
+                    f"{fmt(run, 5)} is below {fmt(bound, 5)}, the least the box allows (the "
+                    "prior's own evidence over the volume ratio): the run missed the posterior, "
+                    "so its shift is not a result"
+                )
             sensitivity.append(
                 [
                     law(names, model),
@@ -249,6 +277,7 @@ def _nested_blocks(rec, fits, names):
                     if box.get("shift_error") is None
                     else f"{fmt(box['shift'], 3)} +- {fmt(box['shift_error'], 2)}",
                     _HOW_ESTIMATED.get(box.get("estimate", "sampled")),
+                    bool(box.get("converged")) and bound is None,
                 ]
             )
     out = [
@@ -293,10 +322,13 @@ def _nested_blocks(rec, fits, names):
                 "halved (about the best fit) and doubled (about its centre); a shift of "
                 "-d ln(factor) is the Occam factor of d parameters the data determine. A box inside "
                 "the prior's needs no new sampling: its evidence is the posterior's share inside it "
-                "times the ratio of the two priors' densities there:"
+                "times the ratio of the two priors' densities there. A wider box holds the prior's, "
+                "whose part of its evidence is exact and a lower bound:"
             ),
-            TABLE(["law", "box width", "ln evidence", "shift", "how"], sensitivity),
+            TABLE(["law", "box width", "ln evidence", "shift", "how", "converged"], sensitivity),
         ]
+        if missed:
+            out.append(P("Missed: " + "; ".join(missed) + "."))
     return out
 
 

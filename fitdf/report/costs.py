@@ -44,8 +44,8 @@ COMMITTED_RUN = {
     "cpu": "Intel(R) Xeon(R) Processor",
     "cores": 2,
     "workers": 2,
-    "total_s": 1188,
-    "command": "fitdf report",
+    "total_s": 4156,
+    "command": "fitdf report --full",
 }
 
 #: The committed report's settings that set its jobs' costs (another value: another cost).
@@ -69,121 +69,136 @@ COMMITTED_SETTINGS = {
 #: Seconds of each job of the committed report, under its key joined by spaces
 #: (:func:`table_text` of its results.json).
 _TABLE = """
-deltamax-joint jiles_atherton            7.78
-B.5 jiles_atherton                       9.37
-permalloy-joint jiles_atherton           4.35
-B.4 jiles_atherton                       3.63
-deltamax-joint preisach                  16.34
-B.5 preisach                             14.75
-deltamax-joint cubic_hc                  26.58
-B.1 jiles_atherton                       2.46
-permalloy-joint preisach                 8.14
-B.3 jiles_atherton                       2.5
-B.4 preisach                             6.66
-B.2 jiles_atherton                       3.36
-B.5 cubic_hc                             26.2
-deltamax-joint rayleigh                  4.21
-permalloy-joint cubic_hc                 18.8
-B.4 cubic_hc                             17.82
-deltamax-joint constant_width            2.5
-B.5 rayleigh                             2.96
-B.1 preisach                             6.39
-B.3 preisach                             3.58
-permalloy-joint rayleigh                 2.06
-B.2 preisach                             7.97
-deltamax-joint frequency_hc              4.52
-B.5 constant_width                       2.83
-B.4 rayleigh                             1.89
-B.1 cubic_hc                             11.5
-permalloy-joint constant_width           1.54
-B.3 cubic_hc                             12.6
-B.5 frequency_hc                         3.77
-B.4 constant_width                       2.63
-B.2 cubic_hc                             10.14
-deltamax-joint proportional_width        4.08
-deltamax-joint proportional_width_fig42  5.67
-permalloy-joint frequency_hc             3.7
-B.4 frequency_hc                         2.34
-B.1 rayleigh                             0.87
-B.3 rayleigh                             1.25
-B.5 proportional_width                   3.05
-B.5 proportional_width_fig42             3.49
-B.2 rayleigh                             0.78
-B.1 constant_width                       0.86
-permalloy-joint proportional_width       2.89
-permalloy-joint proportional_width_fig42 2.91
-B.3 constant_width                       1.37
-B.4 proportional_width                   2.06
-B.4 proportional_width_fig42             3.31
-B.2 constant_width                       1.36
-B.1 frequency_hc                         1.49
-B.3 frequency_hc                         1.62
-B.2 frequency_hc                         1.97
-B.1 proportional_width                   2.03
-B.1 proportional_width_fig42             2.01
-B.3 proportional_width                   1.67
-B.3 proportional_width_fig42             2.55
-B.2 proportional_width                   2.03
-B.2 proportional_width_fig42             1.17
-limit                                    19.79
-nested permalloy-joint jiles_atherton    181.02
-nested B.4 jiles_atherton                138.43
-nested deltamax-joint preisach           414.97
-nested deltamax-joint cubic_hc           348.91
-nested permalloy-joint preisach          290.63
-nested B.4 preisach                      221.49
-dynamic permalloy-joint jiles_atherton   10.76
-dynamic B.4 jiles_atherton               8.06
-dynamic deltamax-joint preisach          40.34
-dynamic B.5 preisach                     22.56
-dynamic deltamax-joint cubic_hc          23.63
-dynamic B.1 jiles_atherton               4.15
-dynamic permalloy-joint preisach         17.13
+deltamax-joint jiles_atherton            8.04
+B.5 jiles_atherton                       9.5
+permalloy-joint jiles_atherton           4.4
+B.4 jiles_atherton                       3.6
+deltamax-joint preisach                  16.01
+B.5 preisach                             14.28
+deltamax-joint cubic_hc                  23.33
+B.1 jiles_atherton                       2.28
+permalloy-joint preisach                 7.86
+B.3 jiles_atherton                       2.3
+B.4 preisach                             6.07
+B.2 jiles_atherton                       2.72
+B.5 cubic_hc                             22.84
+deltamax-joint rayleigh                  3.65
+permalloy-joint cubic_hc                 16.42
+B.4 cubic_hc                             15.52
+deltamax-joint constant_width            2.45
+B.5 rayleigh                             2.72
+B.1 preisach                             5.69
+B.3 preisach                             3
+permalloy-joint rayleigh                 1.9
+B.2 preisach                             7.13
+deltamax-joint frequency_hc              3.97
+B.5 constant_width                       2.47
+B.4 rayleigh                             1.67
+B.1 cubic_hc                             9.7
+permalloy-joint constant_width           1.41
+B.3 cubic_hc                             10.21
+B.5 frequency_hc                         3.2
+B.4 constant_width                       2.16
+B.2 cubic_hc                             8.37
+deltamax-joint proportional_width        3.67
+deltamax-joint proportional_width_fig42  4.96
+permalloy-joint frequency_hc             3.33
+B.4 frequency_hc                         2.1
+B.1 rayleigh                             0.76
+B.3 rayleigh                             1.02
+B.5 proportional_width                   2.71
+B.5 proportional_width_fig42             3.1
+B.2 rayleigh                             0.75
+B.1 constant_width                       0.81
+permalloy-joint proportional_width       2.67
+permalloy-joint proportional_width_fig42 2.67
+B.3 constant_width                       1.27
+B.4 proportional_width                   2.03
+B.4 proportional_width_fig42             3.09
+B.2 constant_width                       1.25
+B.1 frequency_hc                         1.38
+B.3 frequency_hc                         1.48
+B.2 frequency_hc                         1.75
+B.1 proportional_width                   1.77
+B.1 proportional_width_fig42             1.77
+B.3 proportional_width                   1.31
+B.3 proportional_width_fig42             1.92
+B.2 proportional_width                   1.52
+B.2 proportional_width_fig42             0.9
+limit                                    17.65
+nested permalloy-joint jiles_atherton    176.96
+nested B.4 jiles_atherton                135.24
+nested deltamax-joint preisach           452.71
+nested B.5 preisach                      287.12
+nested deltamax-joint cubic_hc           430.93
+nested B.1 jiles_atherton                101.61
+nested permalloy-joint preisach          341.19
+nested B.3 jiles_atherton                81.03
+nested B.4 preisach                      273.13
+nested B.2 jiles_atherton                92.95
+nested B.5 cubic_hc                      607.31
+nested deltamax-joint constant_width     101.75
+nested B.1 preisach                      192.95
+nested B.3 preisach                      165.42
+nested B.2 preisach                      167.93
+nested B.5 constant_width                65.42
+nested permalloy-joint constant_width    102.67
+nested B.4 constant_width                52.98
+nested B.2 cubic_hc                      113.37
+nested B.1 rayleigh                      39.12
+nested B.3 constant_width                34.12
+dynamic permalloy-joint jiles_atherton   11.28
+dynamic B.4 jiles_atherton               7.81
+dynamic deltamax-joint preisach          43.58
+dynamic B.5 preisach                     23.96
+dynamic deltamax-joint cubic_hc          24.75
+dynamic B.1 jiles_atherton               4.22
+dynamic permalloy-joint preisach         18.8
 dynamic B.3 jiles_atherton               3.81
-dynamic B.4 preisach                     11.57
-dynamic B.2 jiles_atherton               3.54
-dynamic B.5 cubic_hc                     11.64
-dynamic B.1 preisach                     7.24
-dynamic B.3 preisach                     5.6
-dynamic B.2 preisach                     5.13
-cv permalloy-joint jiles_atherton        4.07
-cv B.4 jiles_atherton                    2.32
-cv deltamax-joint preisach               13.14
-cv B.5 preisach                          9.64
-cv deltamax-joint cubic_hc               5.35
-cv B.1 jiles_atherton                    1.2
+dynamic B.4 preisach                     12.11
+dynamic B.2 jiles_atherton               3.88
+dynamic B.5 cubic_hc                     12.63
+dynamic B.1 preisach                     7.75
+dynamic B.3 preisach                     5.45
+dynamic B.2 preisach                     5.14
+cv permalloy-joint jiles_atherton        3.94
+cv B.4 jiles_atherton                    2.41
+cv deltamax-joint preisach               12.83
+cv B.5 preisach                          9.38
+cv deltamax-joint cubic_hc               5.96
+cv B.1 jiles_atherton                    1.37
 cv permalloy-joint preisach              7.28
-cv B.3 jiles_atherton                    0.92
-cv B.4 preisach                          3.36
-cv B.2 jiles_atherton                    1.21
-cv B.5 cubic_hc                          4.08
-cv B.1 preisach                          4.27
-cv B.3 preisach                          1.16
-cv B.2 preisach                          1.66
-printed B.5 preisach                     11.6
-printed B.5 cubic_hc                     19.46
-printed deltamax-joint preisach          13.35
-printed deltamax-joint cubic_hc          24.59
-cross permalloy 0.0 600.0 preisach       8.84
-cross permalloy 0.0 600.0 jiles_atherton 4.36
-cross permalloy 600.0 0.0 preisach       7.46
-cross permalloy 600.0 0.0 jiles_atherton 4.63
-cross deltamax 0.0 600.0 preisach        13.9
-cross deltamax 0.0 600.0 jiles_atherton  8.88
-cross deltamax 600.0 0.0 preisach        11.76
-cross deltamax 600.0 0.0 cubic_hc        19.64
-block B.1                                1.92
-block B.3                                1.52
-block B.2                                1.61
-block B.5                                2.14
-block B.4                                7.24
-block permalloy-joint                    9.81
-block deltamax-joint                     11.67
-cross permalloy 0.0 600.0                1.09
-cross permalloy 600.0 0.0                1.04
-cross deltamax 0.0 600.0                 1.79
-cross deltamax 600.0 0.0                 1.67
-thesis                                   0.98
+cv B.3 jiles_atherton                    0.91
+cv B.4 preisach                          3.54
+cv B.2 jiles_atherton                    1.37
+cv B.5 cubic_hc                          4.79
+cv B.1 preisach                          4.75
+cv B.3 preisach                          1.38
+cv B.2 preisach                          1.94
+printed B.5 preisach                     12.29
+printed B.5 cubic_hc                     21.09
+printed deltamax-joint preisach          13.8
+printed deltamax-joint cubic_hc          26.06
+cross permalloy 0.0 600.0 preisach       9.52
+cross permalloy 0.0 600.0 jiles_atherton 4.53
+cross permalloy 600.0 0.0 preisach       7.63
+cross permalloy 600.0 0.0 jiles_atherton 4.68
+cross deltamax 0.0 600.0 preisach        13.7
+cross deltamax 0.0 600.0 jiles_atherton  8.95
+cross deltamax 600.0 0.0 preisach        12.64
+cross deltamax 600.0 0.0 cubic_hc        20.72
+block B.1                                6.78
+block B.3                                5.31
+block B.2                                6.27
+block B.5                                8.73
+block B.4                                7.53
+block permalloy-joint                    10.28
+block deltamax-joint                     12.22
+cross permalloy 0.0 600.0                1.24
+cross permalloy 600.0 0.0                1.23
+cross deltamax 0.0 600.0                 2.05
+cross deltamax 600.0 0.0                 1.79
+thesis                                   1.39
 """
 
 #: First words of the keys of the jobs that are not least-squares fits.
@@ -456,7 +471,7 @@ def _sampler_runs(results: dict, key: str) -> int:
         return 1
     fit = results["blocks"].get(w[1], {}).get("fits_mcmc", {}).get(" ".join(w[2:]), {})
     boxes = ((fit.get("diagnostics") or {}).get("prior_sensitivity") or {}).get("boxes") or []
-    return 1 + sum(b.get("estimate", "sampled") == "sampled" for b in boxes)
+    return 1 + sum(b.get("estimate", "sampled") != "restricted" for b in boxes)
 
 
 def table_text(results: dict) -> str:
