@@ -7,10 +7,8 @@ the parameter tables and the MCMC diagnostics of one block of ``results.json``
 
 from __future__ import annotations
 
-import math
-
+from fitdf.report.conclusion import OUTSIDE
 from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, law
-from fitdf.report.findings import OUTSIDE
 
 __all__ = ["RANK_COLS", "FIT_CAPTION", "LOCI_CAPTION", "RESIDUALS_CAPTION", "CORNER_CAPTION"]
 
@@ -222,20 +220,13 @@ _HOW_ESTIMATED = {
 }
 
 
-def _missed_bound(box, n_params):
+def _missed_bound(box):
     """The lower bound on a wider box's ``ln Z`` that its own run fell below (it missed the
-    posterior the prior's box holds), or None. A record of ``prior_sensitivity`` states
-    the exact bound; an older one is checked against the Occam factor of the box's volume
-    (``ln Z`` can fall by at most ``n_params ln(factor)``, exact for uniform priors)."""
-    if box["factor"] <= 1:
+    posterior the prior's box holds: ``consistent`` false), or None
+    (:func:`fitdf.inference.evidence.widened_log_evidence`)."""
+    if box["factor"] <= 1 or box.get("consistent", True):
         return None
-    if "consistent" in box:
-        return None if box["consistent"] else box["lower_bound"]
-    error = box.get("shift_error") or box["log_evidence_error"]
-    least = -n_params * math.log(box["factor"])
-    if box["shift"] < least - 3 * error:
-        return box["log_evidence"] - box["shift"] + least
-    return None
+    return box["lower_bound"]
 
 
 def _nested_blocks(rec, fits, names):
@@ -259,14 +250,15 @@ def _nested_blocks(rec, fits, names):
                 "report's limit: its band, corner plot and intervals are not drawn as results"
             )
         for box in (d.get("prior_sensitivity") or {}).get("boxes") or []:
-            bound = _missed_bound(box, (fit.get("metrics") or {}).get("n_params", 0))
+            bound = _missed_bound(box)
             if bound is not None:
                 run = box.get("sampled_log_evidence", box["log_evidence"])
                 missed.append(
                     f"{law(names, model)}, box width {fmt(box['factor'])}: its run's ln evidence "
                     f"{fmt(run, 5)} is below {fmt(bound, 5)}, the least the box allows (the "
                     "prior's own evidence over the volume ratio): the run missed the posterior, "
-                    "so its shift is not a result"
+                    "and the evidence shown is the stratified estimate, exact inside the prior's "
+                    "box and a lower bound"
                 )
             sensitivity.append(
                 [
@@ -277,7 +269,7 @@ def _nested_blocks(rec, fits, names):
                     if box.get("shift_error") is None
                     else f"{fmt(box['shift'], 3)} +- {fmt(box['shift_error'], 2)}",
                     _HOW_ESTIMATED.get(box.get("estimate", "sampled")),
-                    bool(box.get("converged")) and bound is None,
+                    bool(box.get("converged")),
                 ]
             )
     out = [
