@@ -367,3 +367,31 @@ def test_the_committed_report_says_what_its_numbers_say():
     assert report_words(results) == {"claims": results["claims"], "findings": results["findings"]}
     assert results["run"]["command"] is not None
     assert claims.text(results["claims"]["intro"]) in (REPO / "reports" / "README.md").read_text()
+
+
+def test_a_range_prints_once_when_its_ends_print_alike():
+    assert claims.span(0.0042, 0.00424, ".4f", "lo", "hi") == "{lo:.4f}"
+    assert claims.span(0.0042, 0.0048, ".4f", "lo", "hi") == "{lo:.4f}-{hi:.4f}"
+
+
+def test_the_posteriors_statement_counts_the_widened_boxes_that_missed():
+    res = _results()
+    fits = res["blocks"]["B.1"]["fits_mcmc"]
+    for fit in list(fits.values()) + list(res["blocks"]["B.2"]["fits_mcmc"].values()):
+        fit["diagnostics"].update(n_likelihood_evaluations=20000, log_evidence_error=0.04)
+    boxes = [{"factor": 0.5}, {"factor": 2.0, "consistent": True}]
+    fits["a"]["diagnostics"]["prior_sensitivity"] = {"boxes": boxes}
+    fits["b"]["diagnostics"]["prior_sensitivity"] = {"boxes": [{"factor": 2.0, "consistent": True}]}
+    said = claim("findings.posteriors", res)["text"]
+    assert said.startswith("Nested sampling: 4 of 4 posteriors meet the convergence rule (400 ")
+    assert "in 20,000 likelihood evaluations; evidence errors 0.04." in said
+    assert said.endswith("none of the 2 runs missed the posterior the prior's box holds.")
+    fits["b"]["diagnostics"]["prior_sensitivity"]["boxes"][0]["consistent"] = False
+    said = claim("findings.posteriors", res)["text"]
+    assert "With the prior box widened, 1 of 2 runs missed the posterior" in said
+    assert "more than 3 errors below the exact part inside it): not converged" in said
+    del fits["b"]["diagnostics"]["prior_sensitivity"]["boxes"][0]["consistent"]  # an old record
+    said = claim("findings.posteriors", res)["text"]
+    assert "the one run did not miss the posterior" in said
+    assert said.endswith("1 of the widened boxes hold no stratified estimate (a record from "
+                         "before it): their evidence is not a result.")  # fmt: skip

@@ -157,7 +157,7 @@ def test_the_catalogue_ranges_and_the_precision_of_each_block():
         f"{min(ratios):.1f}-{max(ratios):.1f} times the"
     )
     assert "reaches the rounding" not in said["text"]
-    assert "No reading is repeated with its own numbers" in said["text"]
+    assert "The tables repeat no reading, so the tables give no spread" in said["text"]
     # a law at the rounding is said to reach it
     results["blocks"]["B.5"]["ranking_lsq"][0]["rms_complex"] = rounding
     assert "; on B.5 it reaches the rounding." in claim("physics.precision", results)["text"]

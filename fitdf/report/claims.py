@@ -65,6 +65,7 @@ __all__ = [
     "recompute",
     "resolve",
     "text",
+    "span",
     "literal_numbers",
     "REFERENCE",
 ]
@@ -219,6 +220,15 @@ def paragraph(results: dict, *specs) -> list[dict]:
 def recompute(record: dict, results: dict) -> dict | None:
     """``record`` made again from ``results`` by its rule (what the tests compare it with)."""
     return claim(record["kind"], results, named=set(record["named_before"]), **record["subject"])
+
+
+def span(low, high, spec: str, low_name: str, high_name: str) -> str:
+    """The template of a range of two named values printed with ``spec``: ``{low}-{high}``,
+    or ``{low}`` alone when the two print alike."""
+    first = "{" + low_name + ":" + spec + "}"
+    if format(low, spec) == format(high, spec):
+        return first
+    return first + "-{" + high_name + ":" + spec + "}"
 
 
 def text(claims) -> str:

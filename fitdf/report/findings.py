@@ -19,7 +19,7 @@ from fitdf.inference.evidence import MISSED_BY_ERRORS
 from fitdf.inference.mcmc import MIN_ESS, MIN_STEPS_OVER_TAU, RHAT_MAX
 from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.inference.small_signal import verdict
-from fitdf.report.claims import paragraph, rule, say
+from fitdf.report.claims import paragraph, rule, say, span
 from fitdf.report.conclusion import LSQ, error_percent
 from fitdf.report.criteria import AICC_TIE, LOO_TIE_SE, best_by, best_law, known
 
@@ -310,9 +310,9 @@ def _posterior_statement(
         template = (
             "Nested sampling: {n_conv} of {n} posteriors meet the convergence rule ({eff} "
             "effective draws, evidence error <= {max_err:g}), in "
-            + _span(values["ev_low"], values["ev_high"], ",.0f", "ev_low", "ev_high")
+            + span(values["ev_low"], values["ev_high"], ",.0f", "ev_low", "ev_high")
             + " likelihood evaluations; evidence errors "
-            + _span(values["err_low"], values["err_high"], ".2f", "err_low", "err_high")
+            + span(values["err_low"], values["err_high"], ".2f", "err_low", "err_high")
             + "."
         )
         wide = [
@@ -323,20 +323,28 @@ def _posterior_statement(
         ]
         if wide:
             values.update(
-                n_wide=len(wide),
+                n_strat=sum(c is not None for c in wide),
                 n_missed=sum(c is False for c in wide),
                 n_old=sum(c is None for c in wide),
                 by=MISSED_BY_ERRORS,
             )
-            template += (
-                " With the prior box widened, {n_missed} of {n_wide} runs missed the posterior "
-                "the prior's box holds (their own evidence more than {by:g} errors below the "
-                "exact part inside it): not converged, their evidence the stratified estimate, "
-                "a lower bound."
-                if values["n_missed"]
-                else " With the prior box widened, no run missed the posterior the prior's box "
-                "holds."
-            )
+            if values["n_missed"]:
+                template += (
+                    " With the prior box widened, {n_missed} of {n_strat} runs missed the "
+                    "posterior the prior's box holds (their own evidence more than {by:g} errors "
+                    "below the exact part inside it): not converged, their evidence the "
+                    "stratified estimate, a lower bound."
+                )
+            elif values["n_strat"] == 1:
+                template += (
+                    " With the prior box widened, the one run did not miss the posterior the "
+                    "prior's box holds."
+                )
+            elif values["n_strat"]:
+                template += (
+                    " With the prior box widened, none of the {n_strat} runs missed the "
+                    "posterior the prior's box holds."
+                )
             if values["n_old"]:
                 template += (
                     " {n_old} of the widened boxes hold no stratified estimate (a record "
@@ -372,13 +380,6 @@ def _posterior_statement(
         + ".",
         **values,
     )
-
-
-def _span(low, high, spec: str, lo: str, hi: str) -> str:
-    """The template ``{lo}-{hi}`` of two fields printed with ``spec``, or ``{lo}`` alone when
-    the two print alike."""
-    first = "{" + lo + ":" + spec + "}"
-    return first if format(low, spec) == format(high, spec) else f"{first}-{{{hi}:{spec}}}"
 
 
 @rule(

@@ -151,7 +151,11 @@ def _settings_text(res, words=None) -> list:
         UL(
             [
                 f"fitdf {res['fitdf_version']}, seed {res['seed']}"
-                + (" (**quick** configuration)" if res.get("quick") else ""),
+                + (
+                    " (**quick** configuration)"
+                    if res.get("quick") or (res.get("run") or {}).get("run") == "quick"
+                    else ""
+                ),
                 f"laws: {', '.join(law(law_names(res), m) for m in s['models'])}; measurement "
                 f"chain `{s.get('chain', 'winding')}`"
                 + (

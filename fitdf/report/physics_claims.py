@@ -10,7 +10,8 @@ ranges; the rate-dependent refits that lower AICc; Jiles-Atherton's mean field a
 from __future__ import annotations
 
 from fitdf.data.cores import STACKING_FACTOR, STACKING_FACTOR_RANGE
-from fitdf.report.claims import paragraph, rule, say
+from fitdf.models import get_model
+from fitdf.report.claims import paragraph, rule, say, span
 from fitdf.report.conclusion import LSQ, QUANTITY_NAMES
 from fitdf.report.criteria import AICC_TIE, best_law
 
@@ -36,7 +37,17 @@ def _precision_block(precision, models, aicc, rms, block):
     return say(
         "{block}: the best law by AICc, {law:law}, has an RMS complex residual of {rms:.4f}, "
         "{ratio:.1f} times the {rounding:.4f} that rounding to the printed digits alone gives "
-        "(|DF| printed to {df_low:g}-{df_high:g}, the lead to {lead_low:g}-{lead_high:g} deg).",
+        "(|DF| printed to "
+        + span(precision["df_step"][0], precision["df_step"][1], "g", "df_low", "df_high")
+        + ", the lead to "
+        + span(
+            precision["phase_step_deg"][0],
+            precision["phase_step_deg"][1],
+            "g",
+            "lead_low",
+            "lead_high",
+        )
+        + " deg).",
         block=block,
         law=law,
         rms=value,
@@ -106,8 +117,11 @@ def _precision(rounding, repeats, models, aicc, rms):
     }
     template = (
         "Against the tables' printed precision: the best law's RMS complex residual is "
-        "{low:.1f}-{high:.1f} times the {r_low:.4f}-{r_high:.4f} that rounding to the printed "
-        "digits alone gives, on " + ("the {n} block" if len(ratios) == 1 else "the {n} blocks")
+        + span(values["low"], values["high"], ".1f", "low", "high")
+        + " times the "
+        + span(values["r_low"], values["r_high"], ".4f", "r_low", "r_high")
+        + " that rounding to the printed digits alone gives, on "
+        + ("the {n} block" if len(ratios) == 1 else "the {n} blocks")
     )
     reached = [k for k, (q, _) in ratios.items() if q <= 1]
     if reached:
@@ -121,6 +135,7 @@ def _precision(rounding, repeats, models, aicc, rms):
             seen[key + (rep["input_v"],)] = rep
     differ = [r for r in seen.values() if not r["identical"]]
     alike = [r for r in seen.values() if r["identical"]]
+    no_spread = "so the tables give no spread of repeated readings to set beside the residuals."
     if differ:
         values.update(
             n_rep=len(differ),
@@ -128,9 +143,12 @@ def _precision(rounding, repeats, models, aicc, rms):
             s_high=max(r["spread"] for r in differ),
         )
         template += (
-            " The {n_rep} readings the tables repeat differ by an RMS of {s_low:.3f}-{s_high:.3f} "
-            "about their means: the scatter of a reading."
+            " The {n_rep} readings the tables repeat differ by an RMS of "
+            + span(values["s_low"], values["s_high"], ".3f", "s_low", "s_high")
+            + " about their means: the scatter of a reading."
         )
+    elif not alike:
+        template += " The tables repeat no reading, " + no_spread
     if alike:
         values.update(
             n_alike=len(alike),
@@ -140,14 +158,12 @@ def _precision(rounding, repeats, models, aicc, rms):
             ],
         )
         template += (
-            " The tables print {n_alike} reading(s) twice with the same numbers ({alike:and}): "
-            "a repeated print, not a second reading."
-        )
-    if not differ:
-        template += (
-            " No reading is repeated with its own numbers, so the tables give no spread of "
-            "repeated readings to set beside the residuals."
-        )
+            " The tables print one reading more than once with the same numbers "
+            "({alike:and}): a repeated print, not a second reading"
+            if len(alike) == 1
+            else " The tables print {n_alike} readings more than once with the same numbers "
+            "({alike:and}): repeated prints, not second readings"
+        ) + (", " + no_spread if not differ else ".")
     return say(template, **values)
 
 
@@ -220,6 +236,10 @@ def _rate_dependent(models, delta):
     )
 
 
+#: Jiles-Atherton's mean-field ratio at its physical limit (the top of its ``limits``).
+_ZETA_LIMIT = next(p for p in get_model("jiles_atherton").params if p.name == "zeta").limits[1]
+
+
 @rule(
     "physics.jiles_atherton",
     block="physics/jiles_atherton/*/block",
@@ -235,7 +255,7 @@ def _ja(block, at_limit, warning):
         "Jiles-Atherton's mean-field ratio zeta sits at its physical limit {limit:g} on "
         "{blocks:and}: the anhysteretic curve's initial susceptibility diverges there, and the "
         "data determine only a lower bound on it." + (" {warning}" if first else ""),
-        limit=1.0,
+        limit=_ZETA_LIMIT,
         blocks=[block[i] for i in at],
         warning=first,
     )

@@ -21,6 +21,11 @@ __all__ = ["physics_blocks", "PHYSICS"]
 PHYSICS = "What the data say: the physics the laws leave out"
 
 
+def _range(low, high) -> str:
+    """``low-high``, or one number when they are equal."""
+    return fmt(low) if low == high else f"{fmt(low)}-{fmt(high)}"
+
+
 def _precision(claims: dict, names: dict) -> list:
     """The best laws' residuals against the tables' printed precision: the sentence, then a
     row per block and per cross-impedance direction (the claims' values)."""
@@ -45,8 +50,8 @@ def _precision(claims: dict, names: dict) -> list:
                         r["rms"],
                         r["rounding"],
                         r["ratio"],
-                        f"{fmt(r['df_low'])}-{fmt(r['df_high'])}",
-                        f"{fmt(r['lead_low'])}-{fmt(r['lead_high'])}",
+                        _range(r["df_low"], r["df_high"]),
+                        _range(r["lead_low"], r["lead_high"]),
                     ]
                     for r in rows
                 ],
