@@ -709,7 +709,8 @@ def test_the_tiny_report_concludes_and_names_its_law(tiny_report, tiny_results):
     assert "All 2 posteriors converged." in text  # nested sampling meets its rule here
     # laws named by title and code name in the tables and headings too
     assert f"| {label} |" in md  # the summary and ranking tables
-    assert f"**{label}** (least squares, best of this method):" in md
+    assert f"**{label}** (least squares, the best by AICc):" in md
+    assert f"**{label}** (nested sampling, the best by the evidence):" in md
     # every caption and statement is about the results, not about how the code was made
     assert not _HISTORY.search(md)
     for caption in (

@@ -8,6 +8,7 @@ the parameter tables and the MCMC diagnostics of one block of ``results.json``
 from __future__ import annotations
 
 from fitdf.report.conclusion import OUTSIDE
+from fitdf.report.criteria import best_by
 from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, law
 
 __all__ = ["RANK_COLS", "FIT_CAPTION", "LOCI_CAPTION", "RESIDUALS_CAPTION", "CORNER_CAPTION"]
@@ -161,15 +162,37 @@ def _material_blocks(fit):
     return [TABLE(["material constant", "fitted", "unit", "Appendix A", "inside"], rows)]
 
 
+#: How each method's fits are named, and the criterion that picks the best of them:
+#: (column of the ranking, larger is better, its name).
+_METHODS = {
+    "lsq": ("least squares", "aicc", False, "AICc"),
+    "nested": ("nested sampling", "log_evidence", True, "the evidence"),
+    "mcmc": ("MCMC", "looic", False, "LOO-IC"),
+}
+
+
 def _param_blocks(rec, names):
+    """Each fit's parameters: of each method the best by its criterion first (AICc for least
+    squares, the evidence for nested sampling, LOO-IC for MCMC), the others folded."""
     out = []
-    for method, fits in (("least squares", rec["fits_lsq"]), ("MCMC", rec["fits_mcmc"])):
-        for i, (model, fit) in enumerate(fits.items()):
+    for fits, ranking in (
+        (rec["fits_lsq"], rec["ranking_lsq"]),
+        (rec["fits_mcmc"], rec["ranking_mcmc"]),
+    ):
+        if not fits:
+            continue
+        kind = next(iter(fits.values())).get("method", "lsq")
+        method, column, larger, criterion = _METHODS.get(kind, _METHODS["lsq"])
+        rows = [r for r in ranking if r["model"] in fits]
+        best = best_by([r["model"] for r in rows], [r.get(column) for r in rows], larger)
+        order = sorted(fits, key=lambda m: m != best)
+        for model in order:
+            fit = fits[model]
             body = [_param_table(fit), *_material_blocks(fit)]
             if fit["warnings"]:
                 body.append(UL([f"warning: {w}" for w in fit["warnings"]]))
-            if i == 0:
-                out += [P(f"**{law(names, model)}** ({method}, best of this method):")] + body
+            if model == best:
+                out += [P(f"**{law(names, model)}** ({method}, the best by {criterion}):")] + body
             else:
                 out.append(DETAILS(f"{law(names, model)} ({method})", body))
     return out
