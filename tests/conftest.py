@@ -1,9 +1,9 @@
-"""One tiny report for the three test files that read it, built once per run; the kernels compiled first.
+"""One tiny report for the four test files that read it, built once per run; the kernels compiled first.
 
-test_report.py, test_report_browser.py and test_json_schemas.py all check a freshly
+test_report.py, test_report_browser.py, test_json_schemas.py and test_claims.py all check a freshly
 generated report (its files, its page in a browser, its results.json against the schema).
 The ``tiny_report`` fixture builds it once per process, and under pytest-xdist
-(``--dist loadfile``, pyproject.toml) the three files are one work unit, so they run in the
+(``--dist loadfile``, pyproject.toml) the four files are one work unit, so they run in the
 same process and the report is built once per run.
 
 On a fresh install the numba kernels are compiled once, before the test processes start
@@ -91,7 +91,12 @@ def pytest_unconfigure(config):
 
 
 #: Test files run in one pytest-xdist process (they share the session fixture ``tiny_report``).
-TINY_REPORT_FILES = ("test_report.py", "test_report_browser.py", "test_json_schemas.py")
+TINY_REPORT_FILES = (
+    "test_report.py",
+    "test_report_browser.py",
+    "test_json_schemas.py",
+    "test_claims.py",
+)
 
 
 @pytest.fixture(scope="session")

@@ -5,6 +5,7 @@ form, and the Occam factor a well-determined posterior shows under it."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -25,6 +26,8 @@ from fitdf.inference.nested import (
 )
 from fitdf.inference.problem import FitProblem
 from fitdf.models import model_names
+
+COMMITTED = Path(__file__).resolve().parents[1] / "reports" / "results.json"
 
 
 def test_the_box_scales_in_internal_coordinates_about_its_centre_or_a_point():
@@ -262,3 +265,53 @@ def test_a_widened_box_stays_inside_every_laws_physical_limits():
     ja = FitProblem(rows, "jiles_atherton", "voltage", None, None, None).with_box_scaled(2.0)
     bounds = {s.name: s.bounds for s in ja.specs}
     assert bounds["zeta"] == (0.0, 1.0) and bounds["c"][1] == pytest.approx(1.0)
+
+
+# ------------------------------------------------------------------ the records' invariant
+def _record(**box):
+    """A sensitivity record of the prior's ``ln Z = 100`` with one doubled box: by default
+    stratified, 10 uniform parameters (bound ``100 - 10 ln 2``), its run on the bound."""
+    least = 100.0 - 10 * math.log(2)
+    out = {"factor": 2.0, "estimate": "widened", "lower_bound": least, "log_evidence": least,
+           "shift": least - 100.0, "consistent": True, "converged": True}  # fmt: skip
+    out.update(box)
+    return {"log_evidence": 100.0, "log_evidence_error": 0.05, "boxes": [out]}
+
+
+def test_no_record_claims_a_shift_its_wider_box_cannot_give():
+    """A doubled box of P uniform parameters lowers ln Z by at most P ln 2: its stratified
+    evidence is never below the part inside the prior's box, and a run that missed that
+    part is not converged. The committed report once held a doubled box of Deltamax's
+    cubic law (10 parameters) shifted by -31.2 and marked converged, from before the
+    stratified estimate: such a record is refused."""
+    violations = evidence.sensitivity_violations
+    assert violations(_record()) == []  # on the bound: allowed
+    old = _record(estimate="sampled", lower_bound=None, shift=-31.2, log_evidence=68.8)
+    assert violations(old) == ["box x2: not stratified (estimate 'sampled', no lower bound)"]
+    low = 100.0 - 10 * math.log(2) - 1e-6  # a shift of -6.93 less a millionth: too far
+    below = violations(_record(log_evidence=low, shift=low - 100.0))
+    assert [v.split(":")[1].split()[:2] for v in below] == [["ln", "Z"], ["shift", "-6.93147"]]
+    assert "below its bound" in below[0] and "below the least the box allows" in below[1]
+    assert violations(_record(shift=-5.0)) == ["box x2: shift -5 is not ln Z - the prior's ln Z"]
+    missed = _record(consistent=False)
+    assert violations(missed) == ["box x2: converged although its run missed the posterior inside"]
+    assert violations(_record(consistent=False, converged=False)) == []
+    halved = _record(factor=0.5, estimate="restricted", lower_bound=None, shift=+20.0)
+    assert violations(halved) == []  # a box inside the prior's: no bound from below
+
+
+@pytest.mark.skipif(not COMMITTED.exists(), reason="no committed reports/results.json")
+def test_the_committed_report_holds_no_doubled_box_from_before_the_stratified_estimate():
+    """Every prior-sensitivity record of the committed report passes
+    :func:`~fitdf.inference.evidence.sensitivity_violations` (fails until the report is
+    regenerated: its doubled boxes were sampled before the stratified estimate)."""
+    import json
+
+    results = json.loads(COMMITTED.read_text())
+    wrong = {
+        (key, law): evidence.sensitivity_violations(sens)
+        for key, block in results["blocks"].items()
+        for law, fit in block["fits_mcmc"].items()
+        if (sens := fit["diagnostics"].get("prior_sensitivity"))
+    }
+    assert {k: v for k, v in wrong.items() if v} == {}

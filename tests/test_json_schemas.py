@@ -353,6 +353,13 @@ def test_results_schema_is_not_vacuous(report_results, switched_off):
         (switched_off, ("limit_cycles", "reason")),
         (r, ("settings", "models")),
         (r, ("findings",)),
+        (r, ("claims",)),
+        (r, ("claims", "conclusion")),
+        (r, ("claims", "conclusion", 0, "fields")),
+        (r, ("run",)),
+        (r, ("physics", "precision")),
+        (r, ("physics", "precision", "B.1", "rounding_rms_complex")),
+        (r, ("physics", "catalogue")),
         (r, ("timing", "total_s")),
     ):
         assert errors("results.schema.json", _drop(results, path)), path

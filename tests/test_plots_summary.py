@@ -26,12 +26,15 @@ def _check(quantity, fitted, low, high, unit):
     }
 
 
-def _block(key, title, core, ohms, tables, rms: dict, checks=None) -> dict:
-    """A block record as fitdf.report.sections.block_record writes it (only what the figure reads)."""
+def _block(key, title, core, ohms, tables, rms: dict, checks=None, aicc=None) -> dict:
+    """A block record as fitdf.report.sections.block_record writes it (only what the figure
+    reads); ``aicc`` of each law, by default in the order of ``rms``; ``checks`` on the best
+    law (the lowest AICc)."""
     order = sorted(rms, key=rms.get)
+    aicc = aicc or {m: 1000 * v for m, v in rms.items()}
     fits = {m: {"model": m} for m in order}
     if checks is not None:
-        fits[order[0]]["appendix_a_check"] = checks
+        fits[min(aicc, key=aicc.get)]["appendix_a_check"] = checks
     return {
         "key": key,
         "title": title,
@@ -39,7 +42,8 @@ def _block(key, title, core, ohms, tables, rms: dict, checks=None) -> dict:
         "tables": tables,
         "source_impedance_ohm": ohms,
         "ranking_lsq": [
-            {"rank": i + 1, "model": m, "rms_complex": rms[m]} for i, m in enumerate(order)
+            {"rank": i + 1, "model": m, "rms_complex": rms[m], "aicc": aicc[m]}
+            for i, m in enumerate(order)
         ],
         "order_lsq": order,
         "fits_lsq": fits,
@@ -87,6 +91,8 @@ def record() -> dict:
                 ["B.1", "B.3"],
                 {"constant_width": 0.102, "rayleigh": 0.49, "cubic_hc": 0.0893},
                 joint,
+                # the lowest residual, cubic_hc, is not the best: AICc charges its parameters
+                aicc={"constant_width": 40.0, "rayleigh": 300.0, "cubic_hc": 41.0},
             ),
         },
     }
@@ -100,11 +106,12 @@ def test_grid_holds_the_records_residuals_and_best(record):
         rows = record["blocks"][key]["ranking_lsq"]
         for row in rows:
             assert grid.rms[grid.laws.index(row["model"]), j] == row["rms_complex"]
-        assert grid.laws[grid.best[j]] == rows[0]["model"]
+        assert grid.laws[grid.best[j]] == min(rows, key=lambda r: r["aicc"])["model"]
         missing = set(grid.laws) - {row["model"] for row in rows}
         for law in missing:
             assert np.isnan(grid.rms[grid.laws.index(law), j])
     assert "rayleigh" in grid.laws and np.isnan(grid.rms[grid.laws.index("rayleigh"), 1])
+    assert grid.laws[grid.best[2]] == "constant_width"  # the lowest AICc, not the lowest RMS
 
 
 def test_figure_draws_the_grid_it_reports(record):

@@ -186,7 +186,7 @@ def test_report_opens_with_the_summary_figure(tiny_report, tiny_results):
         ranking = tiny_results["blocks"][key]["ranking_lsq"]
         for row in ranking:
             assert grid.rms[grid.laws.index(row["model"]), j] == row["rms_complex"]
-        assert grid.laws[grid.best[j]] == ranking[0]["model"]
+        assert grid.laws[grid.best[j]] == min(ranking, key=lambda r: r["aicc"])["model"]
     fig = plot_summary(tiny_results)
     np.testing.assert_array_equal(np.asarray(fig.axes[0].images[0].get_array()), grid.rms)
     rows = constant_rows(tiny_results)  # the fits' Appendix A checks are on the right
@@ -263,7 +263,7 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
         "B.5",
     }
     assert 0.1 < lc["attrs"]["alpha"] < 100
-    assert r["findings"] and any("fits best" in f for f in r["findings"])
+    assert r["findings"] and any("the best law by AICc is" in f for f in r["findings"])
     assert r["audit"]["tables"] and r["audit"]["findings"]
 
 
@@ -637,47 +637,65 @@ def _sentences(text: str) -> list[str]:
 _HISTORY = re.compile(r"\bpass(es|ed)?\b|#\d+|\bissues?\b|\bitem \d|\bPR\b", re.I)
 
 
+def _lowest(rows, column, larger=False):
+    """The model of ``rows`` with the lowest (``larger``: highest) known ``column``."""
+    known = [r for r in rows if r.get(column) is not None]
+    pick = max if larger else min
+    return pick(known, key=lambda r: r[column])["model"] if known else None
+
+
 @pytest.mark.skipif(not COMMITTED.exists(), reason="no committed reports/results.json")
 def test_findings_open_with_a_conclusion_from_the_numbers():
     """The committed report re-rendered from its results.json (no refit): "Findings" opens
-    with a short conclusion whose every number comes from the record."""
+    with a short conclusion whose every number comes from the record, each criterion it
+    names answered by that criterion's numbers (computed here from the rankings)."""
     res = json.loads(COMMITTED.read_text())
     md = render.render_markdown(res)
     text, statements = _findings_section(md)
     assert 3 <= len(_sentences(text)) <= 6, _sentences(text)
     names = {m["name"]: f"{m['title']} `{m['name']}`" for m in res["models"]}
     blocks = res["blocks"].values()
-    # which law to use: each block's best by RMS complex residual, named as a person would
-    winners = {rec["order_lsq"][0] for rec in blocks}
-    if len(winners) == 1:
-        (w,) = winners
-        assert text.startswith(f"Use {names[w]} for all 3 cores")
-    # the error to expect: the RMS complex residual over the RMS measured |DF| of each table
+    # which law to use: each block's lowest AICc, named as a person would
+    best = {rec["key"]: _lowest(rec["ranking_lsq"], "aicc") for rec in blocks}
+    if len(set(best.values())) == 1:
+        (w,) = set(best.values())
+        assert text.startswith(f"Use {names[w]} for all 3 cores: it has the lowest AICc")
+    # the error to expect: the best law's RMS complex residual over the RMS measured |DF|
     for rec in blocks:
-        best = rec["order_lsq"][0]
-        df = np.asarray(rec["fits_lsq"][best]["rows"]["df_measured"], float)
-        pct = 100 * rec["ranking_lsq"][0]["rms_complex"] / np.sqrt(np.mean(df**2))
+        row = next(r for r in rec["ranking_lsq"] if r["model"] == best[rec["key"]])
+        df = np.asarray(rec["fits_lsq"][row["model"]]["rows"]["df_measured"], float)
+        pct = 100 * row["rms_complex"] / np.sqrt(np.mean(df**2))
         assert f"{pct:.1f} %" in text, (rec["key"], pct)
-    # what the data cannot decide: ties of the best law, chains that did not converge,
-    # constants outside Appendix A
+    # what the data cannot decide: each criterion's ties by its own numbers
+    ties = next(s for s in _sentences(text) if s.startswith("By AICc"))
     for rec in blocks:
-        if not rec["ranking_mcmc"]:
-            continue  # (no posterior sampled on this block)
-        for other in (rec["ranking_mcmc"][0].get("indistinguishable_from") or "").split(","):
-            if other.strip():
-                assert f"`{other.split('/')[0].strip()}`" in text
+        post = rec["ranking_mcmc"]
+        loo_best = _lowest(post, "looic")
+        for r in post:
+            d, se = r.get("elpd_loo_diff"), r.get("elpd_loo_dse")
+            if r["model"] != loo_best and d is not None and abs(d) < 2 * se:
+                assert f"`{r['model']}` on {rec['key']} (elpd apart by {d:.1f}" in ties
+        ev_best = _lowest(post, "log_evidence", larger=True)
+        top = max((r["log_evidence"] for r in post if r.get("log_evidence")), default=None)
+        for r in post:
+            if r["model"] != ev_best and r.get("log_evidence") is not None:
+                if 2 * (top - r["log_evidence"]) < 2:
+                    assert f"`{r['model']}` on" in ties.split("; by LOO-IC")[0]
     chains = [f["diagnostics"]["converged"] for rec in blocks for f in rec["fits_mcmc"].values()]
     if all(chains):
         assert f"All {len(chains)} posteriors converged." in text
     else:
         assert f"{chains.count(False)} of {len(chains)} posteriors did not converge" in text
-    checks = [c for rec in blocks for c in rec["fits_lsq"][rec["order_lsq"][0]]["appendix_a_check"]]
+    checks = [c for rec in blocks for c in rec["fits_lsq"][best[rec["key"]]]["appendix_a_check"]]
     outside = sum(not c["inside"] for c in checks)
     assert f"{outside} of the {len(checks)} material constants of the best fits lie outside" in text
     assert "trade against the series resistance" in text and "iron fraction" in text
     # the statements below do not repeat the winners' list, and name laws by title and code
     assert not any(s.startswith("Best model per block") for s in statements)
-    assert statements[0].startswith(f"**{res['blocks']['B.1']['title']}**: {names['preisach']}")
+    first = res["blocks"]["B.1"]
+    assert statements[0].startswith(
+        f"**{first['title']}**: the best law by AICc is {names[best['B.1']]}"
+    )
     assert not _HISTORY.search(text + " ".join(statements))
 
 
@@ -691,7 +709,8 @@ def test_the_tiny_report_concludes_and_names_its_law(tiny_report, tiny_results):
     assert "All 2 posteriors converged." in text  # nested sampling meets its rule here
     # laws named by title and code name in the tables and headings too
     assert f"| {label} |" in md  # the summary and ranking tables
-    assert f"**{label}** (least squares, best of this method):" in md
+    assert f"**{label}** (least squares, the best by AICc):" in md
+    assert f"**{label}** (nested sampling, the best by the evidence):" in md
     # every caption and statement is about the results, not about how the code was made
     assert not _HISTORY.search(md)
     for caption in (
@@ -720,8 +739,8 @@ def test_the_plan_of_a_run_counts_the_jobs_and_figures_it_made(tiny_report, tiny
 
 def test_a_wider_box_whose_run_missed_the_posterior_is_flagged_not_reported():
     """The sensitivity table marks a doubled box whose own run fell below the least evidence
-    the box allows: stated by ``prior_sensitivity`` (``consistent``), or, for a record
-    without it, the prior's evidence less the Occam factor of the volume (``P ln 2``)."""
+    the box allows, as ``prior_sensitivity`` states it (``consistent``), and shows it as not
+    converged; the evidence shown is the stratified one."""
 
     def fit(boxes, n_params=4):
         return {
@@ -747,13 +766,70 @@ def test_a_wider_box_whose_run_missed_the_posterior_is_flagged_not_reported():
     assert "Missed" not in text({"a": fit([good])})
     out = text({"a": fit([missed])})
     assert "Missed: `a`, box width 2: its run's ln evidence 80" in out and "97.23" in out
-    # an older record (no bound stated): 4 parameters allow a fall of 4 ln 2 = 2.77 at most
-    old = {"factor": 2.0, "log_evidence": 97.3, "log_evidence_error": 0.05, "shift": -2.7,
-           "converged": True}  # fmt: skip
-    assert "Missed" not in text({"a": fit([old])})
-    out = text({"a": fit([{**old, "log_evidence": 90.0, "shift": -10.0}])})
-    assert "Missed: `a`, box width 2: its run's ln evidence 90" in out
-    assert "97.2" in out  # 100 - 4 ln 2
+    assert "the stratified estimate" in out
+    table = block_outline._nested_blocks({}, {"a": fit([missed])}, {})
+    (rows,) = [b[2] for b in table if b[0] == "table" and b[1][0] == "law" and "box width" in b[1]]
+    assert rows[0][-1] == "no"  # not converged
     halved = {"factor": 0.5, "log_evidence": 102.0, "log_evidence_error": 0.05, "shift": 2.0,
               "converged": True, "estimate": "restricted"}  # fmt: skip
     assert "Missed" not in text({"a": fit([halved])})
+
+
+def test_each_run_of_the_command_is_named_with_its_seed():
+    """A report says the command that makes it again: the run of ``fitdf report`` whose
+    settings it has, with ``--compare-chain`` and the seed when not the default; none for
+    settings no option gives."""
+    from dataclasses import replace
+
+    from fitdf.report.build import run_record
+
+    for quick, full, command in (
+        (True, False, "fitdf report --quick"),
+        (False, False, "fitdf report"),
+        (False, True, "fitdf report --full"),
+    ):
+        settings = ReportSettings.for_run(quick, full=full)
+        assert run_record(settings, 0)["command"] == command
+        assert run_record(settings, 7)["command"] == command + " --seed 7"
+        # workers and the scheduler change no number: the same run
+        assert run_record(replace(settings, workers=1), 0)["command"] == command
+    chain = ReportSettings.for_run(full=True, compare_chain="winding")
+    assert run_record(chain, 3) == {
+        "run": "full",
+        "command": "fitdf report --full --compare-chain winding --seed 3",
+    }
+    assert run_record(TINY, 0) == {"run": None, "command": None}
+    assert run_record(replace(ReportSettings.for_run(), n_starts=7), 0)["command"] is None
+    assert run_record(ReportSettings.for_run(methods=("lsq",)), 0)["command"] is None
+
+
+def test_a_report_describes_the_methods_it_ran(tiny_report, tiny_results):
+    """The opening says which methods ran: posteriors only when some were sampled, and by
+    which sampler; a report made by settings of its own says so where it says how to
+    regenerate it."""
+    from fitdf.report.claims import claim
+
+    md = (tiny_report / "README.md").read_text()
+    intro = md.split("\n\n")[1]
+    n_post = sum(len(b["fits_mcmc"]) for b in tiny_results["blocks"].values())
+    assert n_post == 2
+    assert "by least squares, with the posteriors of 2 of the fits by nested sampling" in intro
+    assert "predict across source impedance" in intro and "limit cycles" in intro
+    assert "Generated by `fitdf.report.generate_report` with settings of its own" in intro
+    assert "made with settings of its own (`settings` in `results.json`)" in md
+    assert "regenerate with `fitdf report`" not in md
+    # a quick report: no posterior, so no word of one; its command
+    quick = {
+        **tiny_results,
+        "run": {"run": "quick", "command": "fitdf report --quick"},
+        "blocks": {k: {**b, "fits_mcmc": {}} for k, b in tiny_results["blocks"].items()},
+        "cross_impedance": [],
+        "limit_cycles": {"available": False},
+    }
+    said = claim("report.intro", quick)["text"]
+    assert "posterior" not in said and "sampling" not in said and "predict" not in said
+    assert said.endswith(
+        "by least squares, ranked. Generated by `fitdf report --quick`; do not edit."
+    )
+    again = claim("report.regenerate", quick)["text"]
+    assert again.startswith("regenerate with `fitdf report --quick` (same seed")

@@ -1,5 +1,5 @@
-"""The settings of the tiny report that test_report.py, test_report_browser.py and
-test_json_schemas.py read (built once per run: the ``tiny_report`` fixture, conftest.py)."""
+"""The settings of the tiny report that test_report.py, test_report_browser.py,
+test_json_schemas.py and test_claims.py read (built once per run: the ``tiny_report`` fixture, conftest.py)."""
 
 from __future__ import annotations
 

@@ -19,7 +19,9 @@ than the prior's holds likelihood the posterior's draws never saw, and is sample
 evidence is stratified (:func:`widened_log_evidence`): the part inside the prior's box is
 exact from ``Z`` (``Z pi''(x) / pi(x)``), which is also a lower bound on the whole, and only
 the part outside comes from the wider run's draws. A wider run whose own evidence falls below
-that bound has missed the posterior the prior's box holds, and is not converged.
+that bound (by more than :data:`MISSED_BY_ERRORS` errors) has missed the posterior the prior's
+box holds, and is not converged. :func:`sensitivity_violations` checks a record against these
+rules: no wider box's evidence below the part inside, none converged that missed it.
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ __all__ = [
     "prior_sensitivity",
     "restricted_log_evidence",
     "widened_log_evidence",
+    "sensitivity_violations",
+    "MISSED_BY_ERRORS",
     "SENSITIVITY_FACTORS",
     "SAMPLED_FACTORS",
 ]
@@ -41,6 +45,11 @@ SENSITIVITY_FACTORS = (0.5, 2.0)
 #: Of those, the boxes sampled anew: the wider ones (a narrower box is restricted from the
 #: posterior's draws, unless too few fall inside it).
 SAMPLED_FACTORS = tuple(f for f in SENSITIVITY_FACTORS if f > 1)
+#: A wider run whose own ``ln Z''`` is more than this many errors (the two runs' in
+#: quadrature) below the exact part inside the prior's box has missed the posterior there.
+#: Not zero: where the posterior lies well inside the prior's box ``Z''`` is that part alone,
+#: and a run estimating it falls below it half the time by its error.
+MISSED_BY_ERRORS = 3.0
 
 
 def restricted_log_evidence(log_evidence, draws, n_effective, prior, sub_prior):
@@ -127,8 +136,8 @@ def widened_log_evidence(
         ``ln Z'' - ln Z``, in which the part inside cancels), ``lower_bound``
         (``ln Z_in``), ``share_outside`` (the wider posterior's share outside the prior's box),
         and ``consistent``: False when the wider run's own ``ln Z''`` is more than three
-        errors below ``lower_bound`` (it missed the posterior the prior's box holds, and its
-        draws outside cannot be trusted either).
+        errors (:data:`MISSED_BY_ERRORS`) below ``lower_bound`` (it missed the posterior the
+        prior's box holds, and its draws outside cannot be trusted either).
     """
     lo, hi = prior.lo, prior.lo + prior.width
     slack = 1e-9 * prior.width
@@ -155,7 +164,7 @@ def widened_log_evidence(
         "shift_error": float(w_out * np.sqrt(var_out + log_evidence_error**2)),
         "lower_bound": log_in,
         "share_outside": share_out,
-        "consistent": bool(wide_log_evidence >= log_in - 3.0 * gap),
+        "consistent": bool(wide_log_evidence >= log_in - MISSED_BY_ERRORS * gap),
     }
 
 
@@ -255,8 +264,47 @@ def prior_sensitivity(result, lsq, seed=0, factors=SENSITIVITY_FACTORS, **nested
             float(np.hypot(record["log_evidence_error"], base["log_evidence_error"])),
         )
         boxes.append(record)
-    return {
+    out = {
         "log_evidence": base["log_evidence"],
         "log_evidence_error": base["log_evidence_error"],
         "boxes": boxes,
     }
+    wrong = sensitivity_violations(out)
+    if wrong:  # the stratified estimate holds these by construction: a failure is a defect
+        raise RuntimeError("prior_sensitivity: " + "; ".join(wrong))
+    return out
+
+
+def sensitivity_violations(sensitivity: dict, tolerance: float = 1e-9) -> list[str]:
+    """What is wrong with a record of :func:`prior_sensitivity` (an empty list: nothing).
+
+    Every box wider than the prior's must be stratified (``estimate`` ``"widened"``, with its
+    ``lower_bound``): its evidence at or above the exact part inside the prior's box, its
+    ``shift`` the change from the prior's ``ln Z``, and not converged where its own run
+    missed that part (``consistent`` false). The shift is then never below
+    ``lower_bound - ln Z``, the log ratio of the two priors' densities inside the prior's box:
+    for ``P`` uniform parameters whose boxes all double, ``-P ln 2``, so no record claims a
+    larger Occam factor than its parameters allow."""
+    base = sensitivity["log_evidence"]
+    out = []
+    for box in sensitivity.get("boxes") or []:
+        if box["factor"] <= 1:
+            continue
+        name = f"box x{box['factor']:g}"
+        if box.get("estimate") != "widened" or box.get("lower_bound") is None:
+            out.append(f"{name}: not stratified (estimate {box.get('estimate')!r}, no lower bound)")
+            continue
+        least = box["lower_bound"] - base
+        if box["log_evidence"] < box["lower_bound"] - tolerance:
+            out.append(
+                f"{name}: ln Z {box['log_evidence']:.6g} below its bound {box['lower_bound']:.6g}"
+            )
+        if abs(box["shift"] - (box["log_evidence"] - base)) > tolerance:
+            out.append(f"{name}: shift {box['shift']:.6g} is not ln Z - the prior's ln Z")
+        if box["shift"] < least - tolerance:
+            out.append(
+                f"{name}: shift {box['shift']:.6g} below the least the box allows, {least:.6g}"
+            )
+        if box.get("converged") and not box.get("consistent"):
+            out.append(f"{name}: converged although its run missed the posterior inside")
+    return out

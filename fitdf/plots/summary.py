@@ -4,8 +4,8 @@ material constants against Appendix A.
 * left, :func:`residual_grid`: laws (rows) x blocks (columns), each cell coloured by the
   RMS complex residual ``|fit - measured|`` of that law's least-squares fit (viridis, a
   log scale when the values span more than a decade), the number written in the cell,
-  cells without a fit hatched grey, the best law of each block (the first of its
-  ranking) framed in red;
+  cells without a fit hatched grey, the best law of each block (:func:`best_law`: the
+  lowest AICc, the report's best) framed in red;
 * right, :func:`constant_rows`: for the best law of each block, the material constants
   of ``appendix_a_check`` (initial permeability, coercive force, peak flux density, ...)
   against the Appendix A range of the core -- one small panel per quantity (log axis where
@@ -41,13 +41,22 @@ from matplotlib.patches import Patch, Rectangle
 
 from fitdf.plots._figure import new_figure
 
-__all__ = ["SummaryGrid", "residual_grid", "constant_rows", "plot_summary", "CAPTION", "NOTE"]
+__all__ = [
+    "SummaryGrid",
+    "residual_grid",
+    "constant_rows",
+    "plot_summary",
+    "best_law",
+    "CAPTION",
+    "NOTE",
+]
 
 #: One sentence saying what the summary figure's colours and marks mean (the report's caption).
 CAPTION = (
     "Left: RMS complex residual |fit - measured| of every law's least-squares fit on every "
     "block (colour and number; darker is closer, grey hatched: not fitted; red frame: the "
-    "best law of the block); right: the material constants of each block's best fit against "
+    "best law of the block, the lowest AICc); right: the material constants of each block's "
+    "best fit against "
     "the Appendix A range of its core's material (green bar; circle: a 0 ohm table, square: a "
     "600 ohm table, diamond: both jointly), a filled marker inside the range, an open red one "
     "outside it (the fitted constant, at the nominal stacking factor 0.85, lies outside the "
@@ -108,7 +117,7 @@ class SummaryGrid:
     rms : numpy.ndarray
         ``(len(laws), len(blocks))`` RMS complex residuals; NaN where a law has no fit.
     best : list of int or None
-        Per block, the row of its best law (the first of its least-squares ranking).
+        Per block, the row of its best law (:func:`best_law`).
     """
 
     laws: list
@@ -120,6 +129,13 @@ class SummaryGrid:
 
 def _float(v) -> float:
     return float("nan") if v is None else float(v)
+
+
+def best_law(rec: dict):
+    """A block record's best law: the lowest AICc of its least-squares ranking (the first of
+    equals; the report's rule, :func:`fitdf.report.criteria.best_law`), or None."""
+    rows = [r for r in rec.get("ranking_lsq") or [] if r.get("aicc") is not None]
+    return min(rows, key=lambda r: r["aicc"])["model"] if rows else None
 
 
 def _column_label(key: str, rec: dict) -> str:
@@ -160,7 +176,8 @@ def residual_grid(results: dict) -> SummaryGrid:
         rows = recs[key].get("ranking_lsq") or []
         for row in rows:
             rms[laws.index(row["model"]), j] = _float(row.get("rms_complex"))
-        best.append(laws.index(rows[0]["model"]) if rows else None)
+        law = best_law(recs[key])
+        best.append(laws.index(law) if law is not None else None)
     labels = [_column_label(k, recs[k]) for k in blocks]
     return SummaryGrid(laws, blocks, labels, rms, best)
 
@@ -190,10 +207,10 @@ def constant_rows(results: dict) -> list[dict]:
     """
     rows: dict = {}
     for key, rec in (results.get("blocks") or {}).items():
-        order = rec.get("order_lsq") or [r["model"] for r in rec.get("ranking_lsq") or []]
-        if not order:
+        law = best_law(rec)
+        if law is None:
             continue
-        fit = (rec.get("fits_lsq") or {}).get(order[0]) or {}
+        fit = (rec.get("fits_lsq") or {}).get(law) or {}
         material = fit.get("material") or {}
         open_ = {
             "initial_permeability": material.get("initial_converged") is False,
@@ -215,7 +232,7 @@ def constant_rows(results: dict) -> list[dict]:
                 {
                     "block": key,
                     "kind": _block_kind(rec),
-                    "model": order[0],
+                    "model": law,
                     "fitted": _float(c["fitted"]),
                     "fitted_low": _float(c.get("fitted_low", c["fitted"])),
                     "fitted_high": _float(c.get("fitted_high", c["fitted"])),
@@ -305,7 +322,7 @@ def _draw_grid(ax, cax, grid: SummaryGrid, titles: dict) -> None:
     ax.get_figure(root=False).suptitle(
         "RMS complex residual of each law's fit"
         + ("\n" if m < 6 else " ")  # a narrow grid: two lines
-        + "(red frame: best of the block)",
+        + "(red frame: best of the block, lowest AICc)",
         fontsize=11,
         x=0.02,
         ha="left",

@@ -7,10 +7,9 @@ the parameter tables and the MCMC diagnostics of one block of ``results.json``
 
 from __future__ import annotations
 
-import math
-
+from fitdf.report.conclusion import OUTSIDE
+from fitdf.report.criteria import best_by
 from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, law
-from fitdf.report.findings import OUTSIDE
 
 __all__ = ["RANK_COLS", "FIT_CAPTION", "LOCI_CAPTION", "RESIDUALS_CAPTION", "CORNER_CAPTION"]
 
@@ -163,15 +162,37 @@ def _material_blocks(fit):
     return [TABLE(["material constant", "fitted", "unit", "Appendix A", "inside"], rows)]
 
 
+#: How each method's fits are named, and the criterion that picks the best of them:
+#: (column of the ranking, larger is better, its name).
+_METHODS = {
+    "lsq": ("least squares", "aicc", False, "AICc"),
+    "nested": ("nested sampling", "log_evidence", True, "the evidence"),
+    "mcmc": ("MCMC", "looic", False, "LOO-IC"),
+}
+
+
 def _param_blocks(rec, names):
+    """Each fit's parameters: of each method the best by its criterion first (AICc for least
+    squares, the evidence for nested sampling, LOO-IC for MCMC), the others folded."""
     out = []
-    for method, fits in (("least squares", rec["fits_lsq"]), ("MCMC", rec["fits_mcmc"])):
-        for i, (model, fit) in enumerate(fits.items()):
+    for fits, ranking in (
+        (rec["fits_lsq"], rec["ranking_lsq"]),
+        (rec["fits_mcmc"], rec["ranking_mcmc"]),
+    ):
+        if not fits:
+            continue
+        kind = next(iter(fits.values())).get("method", "lsq")
+        method, column, larger, criterion = _METHODS.get(kind, _METHODS["lsq"])
+        rows = [r for r in ranking if r["model"] in fits]
+        best = best_by([r["model"] for r in rows], [r.get(column) for r in rows], larger)
+        order = sorted(fits, key=lambda m: m != best)
+        for model in order:
+            fit = fits[model]
             body = [_param_table(fit), *_material_blocks(fit)]
             if fit["warnings"]:
                 body.append(UL([f"warning: {w}" for w in fit["warnings"]]))
-            if i == 0:
-                out += [P(f"**{law(names, model)}** ({method}, best of this method):")] + body
+            if model == best:
+                out += [P(f"**{law(names, model)}** ({method}, the best by {criterion}):")] + body
             else:
                 out.append(DETAILS(f"{law(names, model)} ({method})", body))
     return out
@@ -222,20 +243,13 @@ _HOW_ESTIMATED = {
 }
 
 
-def _missed_bound(box, n_params):
+def _missed_bound(box):
     """The lower bound on a wider box's ``ln Z`` that its own run fell below (it missed the
-    posterior the prior's box holds), or None. A record of ``prior_sensitivity`` states
-    the exact bound; an older one is checked against the Occam factor of the box's volume
-    (``ln Z`` can fall by at most ``n_params ln(factor)``, exact for uniform priors)."""
-    if box["factor"] <= 1:
+    posterior the prior's box holds: ``consistent`` false), or None
+    (:func:`fitdf.inference.evidence.widened_log_evidence`)."""
+    if box["factor"] <= 1 or box.get("consistent", True):
         return None
-    if "consistent" in box:
-        return None if box["consistent"] else box["lower_bound"]
-    error = box.get("shift_error") or box["log_evidence_error"]
-    least = -n_params * math.log(box["factor"])
-    if box["shift"] < least - 3 * error:
-        return box["log_evidence"] - box["shift"] + least
-    return None
+    return box["lower_bound"]
 
 
 def _nested_blocks(rec, fits, names):
@@ -259,14 +273,15 @@ def _nested_blocks(rec, fits, names):
                 "report's limit: its band, corner plot and intervals are not drawn as results"
             )
         for box in (d.get("prior_sensitivity") or {}).get("boxes") or []:
-            bound = _missed_bound(box, (fit.get("metrics") or {}).get("n_params", 0))
+            bound = _missed_bound(box)
             if bound is not None:
                 run = box.get("sampled_log_evidence", box["log_evidence"])
                 missed.append(
                     f"{law(names, model)}, box width {fmt(box['factor'])}: its run's ln evidence "
                     f"{fmt(run, 5)} is below {fmt(bound, 5)}, the least the box allows (the "
                     "prior's own evidence over the volume ratio): the run missed the posterior, "
-                    "so its shift is not a result"
+                    "and the evidence shown is the stratified estimate, exact inside the prior's "
+                    "box and a lower bound"
                 )
             sensitivity.append(
                 [
@@ -277,7 +292,7 @@ def _nested_blocks(rec, fits, names):
                     if box.get("shift_error") is None
                     else f"{fmt(box['shift'], 3)} +- {fmt(box['shift_error'], 2)}",
                     _HOW_ESTIMATED.get(box.get("estimate", "sampled")),
-                    bool(box.get("converged")) and bound is None,
+                    bool(box.get("converged")),
                 ]
             )
     out = [

@@ -80,6 +80,7 @@ from fitdf.report import costs, render
 from fitdf.report import sections as rs
 from fitdf.report.physics import physics_record
 from fitdf.report.progress import RunProgress
+from fitdf.report.words import report_words
 
 __all__ = [
     "generate_report",
@@ -88,6 +89,7 @@ __all__ = [
     "CROSS_DIRECTIONS",
     "collect",
     "write_outputs",
+    "run_record",
 ]
 
 
@@ -683,7 +685,6 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: Executor)
         },
         supermalloy=_supermalloy(lsq, ranked, second["dynamic"]),
     )
-    results["findings"] = rs.findings(results)
     # The opening figure reads the assembled record (cheap: drawn here, not as a pool job).
     results["summary_figure"] = rs.summary_figure(results, figdir)
     timing["jobs_s"] = dict(runner.seconds)
@@ -851,8 +852,10 @@ def generate_report(
             "seed": int(seed),
             "quick": bool(quick),
             "settings": _settings_record(settings),
+            "run": run_record(settings, seed),
             **results,
         }
+        results.update(report_words(results))
         write_outputs(results, tmp)
         _swap_in(tmp, out_dir)
     except BaseException:
@@ -905,6 +908,31 @@ def _display(settings: ReportSettings, runner: Executor, progress: bool, cached:
         reference="at the committed machine's speed",
     )
     return runner.display
+
+
+#: The runs of ``fitdf report``, each with its command-line option.
+RUNS = {"quick": "--quick", "default": "", "full": "--full"}
+
+
+def run_record(settings: ReportSettings, seed: int) -> dict:
+    """Which run of ``fitdf report`` made a report of ``settings`` and ``seed``, and the command
+    that makes it again: ``{"run": "quick" | "default" | "full" | None, "command": str | None}``
+    (None: settings no option of the command gives, such as a test's)."""
+    made = _settings_record(settings)
+    for name, option in RUNS.items():
+        run = ReportSettings.for_run(
+            quick=name == "quick",
+            full=name == "full",
+            compare_chain=settings.approximate_chain,
+        )
+        if _settings_record(run) == made:
+            words = ["fitdf report", option]
+            if settings.approximate_chain:
+                words.append(f"--compare-chain {settings.approximate_chain}")
+            if int(seed) != 0:
+                words.append(f"--seed {int(seed)}")
+            return {"run": name, "command": " ".join(w for w in words if w)}
+    return {"run": None, "command": None}
 
 
 def _settings_record(settings: ReportSettings) -> dict:

@@ -1,508 +1,506 @@
-"""The report's "Findings": a short conclusion and the detailed statements, generated from the
-numbers of ``results.json``.
+"""The report's "Findings": the detailed statements after the conclusion, each a claim of
+:mod:`fitdf.report.claims` made from named fields of ``results.json``.
 
-:func:`conclusion` says in a few sentences which law to use for which core, the error to expect
-from it, and what the data cannot decide (ties, unconverged chains, material constants
-outside Appendix A and the ones the describing function does not determine);
-:func:`findings` states per block the winners, margins, verdicts and failures, then the
-cross-impedance, small-signal, audit and limit-cycle results. Both read the records that
-:mod:`fitdf.report.sections` built; nothing in them is typed by hand.
+Per block: the best law (:func:`fitdf.report.criteria.best_law`, the lowest AICc) with its
+margin and residual; what the posteriors' criteria (the evidence, LOO-IC) say, each by its
+own numbers; where the criteria disagree; the hardest rows. Then where all laws fail, the
+posteriors' convergence, the cross-impedance predictions, the small-signal test, the joint
+fits and the physics section's sentences (:mod:`fitdf.report.physics_claims`).
+:func:`findings` lists the statements as paragraphs of claims, or as plain sentences for the
+few still written without one (the audit's, the limit cycles', Supermalloy's).
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pandas as pd
 
-from fitdf.data.cores import STACKING_FACTOR, STACKING_FACTOR_RANGE
+from fitdf.inference.evidence import MISSED_BY_ERRORS
+from fitdf.inference.mcmc import MIN_ESS, MIN_STEPS_OVER_TAU, RHAT_MAX
 from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
-from fitdf.report.document import law, law_names
+from fitdf.inference.small_signal import verdict
+from fitdf.report.claims import paragraph, rule, say, span
+from fitdf.report.conclusion import LSQ, error_percent
+from fitdf.report.criteria import AICC_TIE, LOO_TIE_SE, best_by, best_law, known
 
-__all__ = [
-    "findings",
-    "conclusion",
-    "error_percent",
-    "QUANTITY_NAMES",
-    "OUTSIDE",
-    "UNDETERMINED",
-]
+__all__ = ["findings", "block_claims"]
 
-#: The Appendix A quantities in words.
-QUANTITY_NAMES = {
-    "initial_permeability": "initial permeability",
-    "maximum_permeability": "maximum permeability",
-    "coercive_force_Hc": "coercive force",
-    "peak_flux_density_Bp": "peak flux density B_p",
-    "residual_induction_Br": "residual induction B_r",
-    "squareness_Br_over_Bp": "squareness B_r/B_p",
-    "series_resistance": "series resistance",
+_BLOCK = {
+    "models": "blocks/{block}/ranking_lsq/*/model",
+    "aicc": "blocks/{block}/ranking_lsq/*/aicc",
+}
+_BLOCK_POST = {
+    "post_models": "blocks/{block}/ranking_mcmc/*/model",
+    "log_evidence": "blocks/{block}/ranking_mcmc/*/log_evidence",
+    "looic": "blocks/{block}/ranking_mcmc/*/looic",
 }
 
-#: What "outside" means for a material constant of a fit.
-OUTSIDE = (
-    "the fitted constant lies outside the Appendix A catalogue range of the core's material, "
-    f"at the nominal stacking factor {STACKING_FACTOR:g} (for the series resistance: outside "
-    "the central 95 % of its prior, the winding's Appendix A estimate plus a typical source and "
-    "leads)"
+
+def _at(models, values, model):
+    return values[models.index(model)]
+
+
+# ------------------------------------------------------------------ per block
+@rule(
+    "block.best",
+    title="blocks/{block}/title",
+    rms="blocks/{block}/ranking_lsq/*/rms_complex",
+    n_params="blocks/{block}/ranking_lsq/*/n_params",
+    df="blocks/{block}/fits_lsq/*/rows/df_measured",
+    **_BLOCK,
 )
-
-#: What the describing function leaves open about the material constants (from
-#: :mod:`fitdf.data.cores` and :mod:`fitdf.inference.material`), for the report's text.
-UNDETERMINED = (
-    "The describing function does not determine the iron fraction of the core's section (the "
-    "stacking factor, which the thesis does not print): inductions and permeabilities scale as "
-    "its inverse, so they are also given over the range of tape-wound cores, "
-    f"{STACKING_FACTOR_RANGE[0]:g}-{STACKING_FACTOR_RANGE[1]:g}. At one source impedance the data "
-    "fix a core only up to a current scale that trades against the series resistance, so there "
-    "the permeabilities and the coercive force rest on the resistance's prior; the joint fits of "
-    "0 and 600 ohm determine them. B_p and B_r are the tip and remanence of the largest loop the "
-    "tables reach, not of the catalogue's unprinted test conditions"
-)
-
-
-#: The same, in short, for the conclusion.
-_UNDETERMINED_SHORT = (
-    "the describing function does not determine all of them: inductions and permeabilities "
-    "carry the unprinted iron fraction of the section, and at one source impedance the "
-    "permeabilities and the coercive force trade against the series resistance"
-)
-
-
-class _Names:
-    """Law names for one paragraph: the human name beside the code name at the first mention,
-    the code name after it."""
-
-    def __init__(self, results: dict):
-        self.full, self.seen = law_names(results), set()
-
-    def __call__(self, name) -> str:
-        if name in self.seen:
-            return f"`{name}`"
-        self.seen.add(name)
-        return law(self.full, name)
-
-
-def _pct(a, b):
-    return 100.0 * (b - a) / b if b else float("nan")
-
-
-def _listed(items) -> str:
-    """``a``, ``a and b``, ``a, b and c``."""
-    items = list(items)
-    return ", ".join(items[:-1]) + f" and {items[-1]}" if len(items) > 1 else "".join(items)
-
-
-def _tied_with(cell) -> list[str]:
-    """The laws of an ``indistinguishable_from`` cell (``"cubic_hc/voltage, rayleigh/voltage"``)."""
-    return [t.split("/")[0].strip() for t in str(cell or "").split(",") if t.strip()]
-
-
-def error_percent(rec: dict, model: str) -> float:
-    """RMS complex residual of ``model``'s least-squares fit on a block as a percentage of the
-    RMS measured ``|DF|`` of the rows it fitted."""
-    fit = rec["fits_lsq"][model]
-    df = np.asarray(fit["rows"]["df_measured"], float)
-    rms = next(r["rms_complex"] for r in rec["ranking_lsq"] if r["model"] == model)
-    return 100.0 * rms / float(np.sqrt(np.nanmean(df**2)))
-
-
-# ------------------------------------------------------------------ the conclusion
-def _use_sentence(blocks, names) -> str:
-    """Which law to use for which core."""
-    best = {k: rec["order_lsq"][0] for k, rec in blocks.items() if rec["order_lsq"]}
-    cores = list(dict.fromkeys(blocks[k]["core"] for k in best))
-    laws = set(best.values())
-    fitted = {m for rec in blocks.values() for m in rec["order_lsq"]}
-    if len(fitted) == 1:
-        return (
-            f"Only {names(next(iter(fitted)))} was fitted here, to "
-            f"{_listed(c.capitalize() for c in cores)}: this report ranks no laws."
-        )
-    if len(laws) == 1:
-        (w,) = laws
-        also = []
-        aicc = {
-            min(rec["ranking_lsq"], key=lambda r: math.inf if r["aicc"] is None else r["aicc"])[
-                "model"
-            ]
-            for rec in blocks.values()
-            if rec["ranking_lsq"]
-        }
-        if aicc == {w}:
-            also.append("AICc")
-        loo = {rec["order_mcmc"][0] for rec in blocks.values() if rec.get("order_mcmc")}
-        if loo == {w}:
-            also.append(_posterior_criterion(blocks))
-        n = f"all {len(cores)} cores" if len(cores) > 1 else cores[0].capitalize()
-        return (
-            f"Use {names(w)} for {n}: it has the smallest RMS complex residual on "
-            + {1: "the block", 2: "both blocks"}.get(len(best), f"all {len(best)} blocks")
-            + (" (each table alone and each core's tables jointly)" if len(best) > 1 else "")
-            + (f" and the lowest {_listed(also)}" if also else "")
-            + "."
-        )
-    parts = []
-    for core in cores:
-        by_law = {}
-        for k, w in best.items():
-            if blocks[k]["core"] == core:
-                by_law.setdefault(w, []).append(k)
-        parts.append(
-            f"{core.capitalize()}: "
-            + "; ".join(f"{names(w)} (best on {_listed(ks)})" for w, ks in by_law.items())
-        )
-    return "The law with the smallest RMS complex residual depends on the core. " + (
-        ". ".join(parts) + "."
-    )
-
-
-def _error_sentence(blocks) -> str | None:
-    """The error to expect from each block's best law, as a share of the DF."""
-    single, joint = [], []
-    for rec in blocks.values():
-        if not rec["order_lsq"]:
-            continue
-        pct = error_percent(rec, rec["order_lsq"][0])
-        ohms = "+".join(f"{o:g}" for o in rec["source_impedance_ohm"])
-        (joint if len(rec["source_impedance_ohm"]) > 1 else single).append((rec, ohms, pct))
-    if not single and not joint:
+def _best(title, rms, n_params, df, models, aicc, block):
+    best = best_law(models or [], aicc or [])
+    if best is None:
         return None
-    every = [p for _, _, p in single + joint]
-    by_core = {}
-    for rec, ohms, pct in single:
-        by_core.setdefault(rec["core"], []).append(f"{pct:.1f} % at {ohms} ohm")
-    span = f"{min(every):.1f}-{max(every):.1f} %" if len(every) > 1 else f"{every[0]:.1f} %"
-    text = f"Expect an RMS complex residual of {span} of the measured |DF|"
-    if by_core:
-        text += ": " + "; ".join(f"{c.capitalize()} {_listed(v)}" for c, v in by_core.items())
-    if joint:
-        text += "; one parameter set for both impedances: " + _listed(
-            f"{p:.1f} % ({rec['core'].capitalize()})" for rec, _, p in joint
+    values = {
+        "title": title,
+        "best": best,
+        "k": _at(models, n_params, best),
+        "rms": _at(models, rms, best),
+        "pct": error_percent(_at(models, rms, best), df[best]),
+    }
+    template = (
+        "**{title}**: the best law by AICc is {best:law} ({k} parameters; RMS complex residual "
+        "{rms:.4f}, {pct:.1f} % of the DF)"
+    )
+    others = [i for i in known(aicc) if models[i] != best]
+    if others:
+        second = min(others, key=lambda i: aicc[i])
+        values.update(
+            second=models[second],
+            d_aicc=aicc[second] - _at(models, aicc, best),
+            rms2=rms[second],
+            tie=AICC_TIE,
         )
-    return text + "."
+        template += "; the runner-up {second:law} has an AICc higher by {d_aicc:.1f}" + (
+            " (within {tie:g}: a tie)" if values["d_aicc"] < AICC_TIE else ""
+        )
+        template += " and RMS {rms2:.4f}"
+    template += "."
+    low = best_by(models, rms)
+    if low is not None and low != best:
+        values.update(low=low, rms_low=_at(models, rms, low), k_low=_at(models, n_params, low))
+        template += " The smallest RMS complex residual is {low:law}'s ({rms_low:.4f}, {k_low} "
+        template += (
+            "parameters): AICc charges it for its parameters."
+            if values["k_low"] > values["k"]
+            else "parameters): AICc weighs magnitude and phase by the tables' precision, not "
+            "the complex residual."
+        )
+    return say(template, **values)
 
 
-def _ties_sentence(blocks, names) -> str | None:
-    """Where the best law cannot be told apart from another."""
-    if len({m for rec in blocks.values() for m in rec["order_lsq"]}) < 2:
+_LOO_NUMBERS = {
+    "elpd_diff": "blocks/{block}/ranking_mcmc/*/elpd_loo_diff",
+    "elpd_dse": "blocks/{block}/ranking_mcmc/*/elpd_loo_dse",
+}
+
+
+@rule("block.posteriors", **_BLOCK, **_BLOCK_POST, **_LOO_NUMBERS)
+def _posteriors(models, aicc, post_models, log_evidence, looic, elpd_diff, elpd_dse, block):
+    """What the evidence and LOO-IC say of the best law, each by its own numbers."""
+    best = best_law(models or [], aicc or [])
+    if best is None or not post_models:
         return None
-    aicc, loo = {}, {}
-    for k, rec in blocks.items():
-        for ranking, out in ((rec["ranking_lsq"], aicc), (rec.get("ranking_mcmc") or [], loo)):
-            if ranking:
-                for other in _tied_with(ranking[0].get("indistinguishable_from")):
-                    out.setdefault((ranking[0]["model"], other), []).append(k)
-    parts = [
-        f"{names(a)} from {names(b)} on {_listed(ks)} (by AICc: within 2)"
-        for (a, b), ks in aicc.items()
-    ]
-    by = (
-        "by the evidence: a Bayes factor not worth more than a bare mention"
-        if _posterior_criterion(blocks) == "the evidence"
-        else "by LOO-IC: elpd apart by less than twice its standard error"
-    )
-    parts += [f"{names(a)} from {names(b)} on {_listed(ks)} ({by})" for (a, b), ks in loo.items()]
-    if not parts:
-        mcmc = any(r.get("ranking_mcmc") for r in blocks.values())
-        return (
-            "No other law comes within 2 of the best law's AICc on any block"
-            + (" or within the uncertainty of its LOO-IC" if mcmc else "")
-            + "."
-        )
-    return "The data cannot tell " + "; nor ".join(parts) + "."
-
-
-def _posterior_criterion(blocks) -> str:
-    """What ranks the posteriors: the evidence (nested sampling) or LOO-IC (MCMC)."""
-    methods = {f.get("method") for rec in blocks.values() for f in rec["fits_mcmc"].values()}
-    return "the evidence" if methods == {"nested"} else "LOO-IC"
-
-
-def _chains_sentence(blocks, names) -> str:
-    """How many posteriors converged; which not."""
-    fits = [(k, m, f) for k, rec in blocks.items() for m, f in rec["fits_mcmc"].items()]
-    if not fits:
-        return "No posterior was sampled in this configuration: the ranking rests on least squares."
-    bad = {}
-    for k, m, f in fits:
-        if not f["diagnostics"].get("converged"):
-            bad.setdefault(m, []).append(k)
-    if not bad:
-        return f"All {len(fits)} posteriors converged."
-    n_bad = sum(map(len, bad.values()))
-    return (
-        f"{n_bad} of {len(fits)} posteriors did not converge within the report's limit ("
-        + "; ".join(f"{names(m)} on {_listed(ks)}" for m, ks in bad.items())
-        + "): they are listed, not drawn as results."
-    )
-
-
-def _constants_sentence(blocks) -> str | None:
-    """How many of the best fits' material constants lie outside Appendix A, and why some
-    cannot be decided."""
-    checks, open_mu = [], []
-    for k, rec in blocks.items():
-        if not rec["order_lsq"]:
-            continue
-        fit = rec["fits_lsq"][rec["order_lsq"][0]]
-        checks += fit.get("appendix_a_check") or []
-        if (fit.get("material") or {}).get("initial_converged") is False:
-            open_mu.append(k)
-    if not checks:
-        return None
-    outside = {}
-    for c in checks:
-        if not c["inside"]:
-            outside[c["quantity"]] = outside.get(c["quantity"], 0) + 1
-    most = sorted(outside.items(), key=lambda qn: -qn[1])[:2]
-    text = (
-        f"{sum(outside.values())} of the {len(checks)} material constants of the best fits lie "
-        "outside the Appendix A catalogue ranges"
-        + (
-            ", most often the " + _listed(f"{QUANTITY_NAMES.get(q, q)} ({n})" for q, n in most)
-            if most
-            else ""
-        )
-        + "; "
-        + _UNDETERMINED_SHORT
-    )
-    if open_mu:
-        text += (
-            f", and on {_listed(open_mu)} the best fit's small-signal inductance still changes "
-            "at a millionth of the largest current, so its initial permeability is not determined"
-        )
-    return text + "."
-
-
-def conclusion(results: dict) -> str:
-    """A few plain sentences: the law to use per core, the error to expect, what the data
-    cannot decide (see the module docstring)."""
-    blocks = {k: r for k, r in results["blocks"].items() if r["order_lsq"]}
-    if not blocks:
-        return "No block was fitted."
-    names = _Names(results)
-    parts = [
-        _use_sentence(blocks, names),
-        _error_sentence(blocks),
-        _ties_sentence(blocks, names),
-        _chains_sentence(blocks, names),
-        _constants_sentence(blocks),
-    ]
-    return " ".join(p for p in parts if p)
-
-
-# ------------------------------------------------------------------ the detailed statements
-def _block_finding(rec, results) -> str | None:
-    """One sentence group per block: winner and margin, AICc and LOO verdicts, the hardest spot."""
-    names = _Names(results)
-    rank = rec["ranking_lsq"]
-    if not rank:
-        return None
-    best = rank[0]
-    text = (
-        f"**{rec['title']}**: {names(best['model'])} fits best (RMS complex residual "
-        f"{best['rms_complex']:.4f}, {error_percent(rec, best['model']):.1f} % of the DF"
-    )
-    if len(rank) > 1:
-        second = rank[1]
-        d_aicc = (second["aicc"] or 0.0) - (best["aicc"] or 0.0)
-        text += (
-            f"; {_pct(best['rms_complex'], second['rms_complex']):.0f}% below the runner-up "
-            f"{names(second['model'])} at {second['rms_complex']:.4f}; "
-            + (
-                f"AICc lower by {d_aicc:.1f}"
-                if d_aicc >= 0
-                else f"but AICc higher by {-d_aicc:.1f}"
+    values = {"best": best, "n": len(post_models), "loo_se": LOO_TIE_SE}
+    sentences = []
+    ev = best_by(post_models, log_evidence, larger=True)
+    if ev is not None:
+        if ev == best:
+            sentences.append(
+                "The evidence agrees ({n} law sampled)."
+                if len(post_models) == 1
+                else "The evidence agrees ({n} laws sampled)."
             )
-        )
-    text += ")."
-    aicc_best = min(rank, key=lambda r: r["aicc"] if r["aicc"] is not None else math.inf)
-    if aicc_best["model"] != best["model"]:
-        text += f" AICc, which charges for parameters, prefers {names(aicc_best['model'])}."
-    if rec["ranking_mcmc"]:
-        m = rec["ranking_mcmc"][0]["model"]
-        how = _posterior_criterion({rec["key"]: rec})
-        text += (
-            f" The posteriors ({how}) agree."
-            if m == best["model"]
-            else f" Of the {len(rec['ranking_mcmc'])} laws sampled, {how} prefers {names(m)}."
-        )
-        text += _disagreement(rec, names)
-    fail = rec["where_models_fail"]
-    if fail["frequency_blocks"] and fail["rows"]:
-        fb, w = fail["frequency_blocks"][0], fail["rows"][0]
-        text += (
-            f" Hardest: {fb['frequency_hz']:g} c/s at {fb['source_impedance_ohm']:g} ohm (best "
-            f"law there {names(fb['best_model'])}, RMS {fb['best_rms_complex']:.3f}); every "
-            f"law misses {w['table']} {w['frequency_hz']:g} c/s, {w['input_v']:g} V (|DF| "
-            f"{w['df_measured']:.3g}, lead {w['phase_lead_measured_deg']:.3g} deg) by at least "
-            f"{w['smallest_complex_residual']:.3f}."
-        )
-    return text
+        else:
+            values["ev"] = ev
+            if best in post_models and known([_at(post_models, log_evidence, best)]):
+                values["ln_b"] = _at(post_models, log_evidence, ev) - _at(
+                    post_models, log_evidence, best
+                )
+                sentences.append(
+                    "Of the {n} laws sampled, the evidence prefers {ev:law} (ln B {ln_b:.1f} "
+                    "over {best:law})."
+                )
+            else:
+                sentences.append(
+                    "Of the {n} laws sampled, which do not include {best:law}, the evidence "
+                    "prefers {ev:law}."
+                )
+    loo = best_by(post_models, looic)
+    if loo is not None:
+        if loo == best:
+            sentences.append("LOO-IC agrees.")
+        elif best in post_models and known([_at(post_models, elpd_diff, best)]):
+            values.update(
+                loo=loo,
+                loo_diff=_at(post_models, elpd_diff, best),
+                loo_dse=_at(post_models, elpd_dse, best) or 0.0,
+            )
+            tie = abs(values["loo_diff"]) < LOO_TIE_SE * values["loo_dse"]
+            sentences.append(
+                "LOO-IC prefers {loo:law} (elpd ahead by {loo_diff:.1f} +- {loo_dse:.1f}"
+                + (", less than {loo_se:g} standard errors: a tie)." if tie else ").")
+            )
+        else:
+            values["loo"] = loo
+            sentences.append("LOO-IC prefers {loo:law}, among the laws sampled.")
+    return say(" ".join(sentences), **values) if sentences else None
 
 
-def _failure_pattern(blocks) -> str | None:
-    """Where all models fail, across the single-table blocks: amplitude and lead of the worst rows."""
-    worst, every, per_table = [], [], 0
-    for rec in blocks.values():
-        if len(rec["tables"]) != 1:
-            continue
-        worst += rec["where_models_fail"]["rows"]
-        per_table = max(per_table, len(rec["where_models_fail"]["rows"]))
-        rows = next(iter(rec["fits_lsq"].values()))["rows"]
-        every += [
-            {"input_v": a, "lead": p}
-            for a, p in zip(rows["input_v"], rows["phase_lead_measured_deg"])
-        ]
-    if not worst:
+@rule(
+    "block.disagreement",
+    cv="blocks/{block}/ranking_lsq/*/cv_rms_complex",
+    **_BLOCK,
+    **_BLOCK_POST,
+)
+def _disagreement(cv, models, aicc, post_models, log_evidence, looic, block):
+    """Where the criteria rank the sampled laws differently, in one sentence."""
+    if not post_models:
         return None
-    wa = float(np.median([w["input_v"] for w in worst]))
-    aa = float(np.median([e["input_v"] for e in every]))
-    wl = float(
-        np.nanmedian(
-            [
-                np.nan if w["phase_lead_measured_deg"] is None else w["phase_lead_measured_deg"]
-                for w in worst
-            ]
-        )
-    )
-    al = float(np.nanmedian([np.nan if e["lead"] is None else e["lead"] for e in every]))
-    text = (
-        f"Where all laws fail: the {len(worst)} rows that every law misses most ({per_table}"
-        f" per table) have a median input of {wa:.3g} V (all rows: {aa:.3g} V) and a median "
-        f"phase lead of {wl:.3g} deg (all rows: {al:.3g} deg)"
-    )
-    if wa < 0.5 * aa:
-        text += " -- they sit at the small-signal end of the tables"
-        text += ", where the measured lead is large" if wl > 1.5 * al else ""
-    return text + "."
-
-
-def _disagreement(rec, names) -> str:
-    """Where the criteria rank the sampled laws differently: AICc, LOO-IC, the evidence and
-    cross-validation, each on the laws it ranks."""
-    sampled = [r["model"] for r in rec["ranking_mcmc"]]
-    rows = {r["model"]: r for r in rec["ranking_lsq"] if r["model"] in sampled}
-    post = {r["model"]: r for r in rec["ranking_mcmc"]}
-    best = {}
-    for name, values, better in (
-        ("AICc", {m: rows[m].get("aicc") for m in rows}, min),
-        ("cross-validation", {m: rows[m].get("cv_rms_complex") for m in rows}, min),
-        ("LOO-IC", {m: post[m].get("looic") for m in post}, min),
-        ("the evidence", {m: post[m].get("log_evidence") for m in post}, max),
+    sampled = [m for m in post_models if m in (models or [])]
+    own = [models.index(m) for m in sampled]
+    picks = {}
+    for name, ms, vs, larger in (
+        ("AICc", sampled, [aicc[i] for i in own], False),
+        ("cross-validation", sampled, [cv[i] for i in own], False),
+        ("LOO-IC", post_models, looic, False),
+        ("the evidence", post_models, log_evidence, True),
     ):
-        known = {m: v for m, v in values.items() if v is not None and math.isfinite(v)}
-        if len(known) >= 2:
-            best[name] = better(known, key=known.get)
-    if len(set(best.values())) < 2:
-        return ""
-    return (
-        " The criteria disagree on the laws sampled: "
-        + "; ".join(f"{name} prefers {names(m)}" for name, m in best.items())
-        + "."
+        if len(known(vs)) >= 2:
+            picks[name] = best_by(ms, vs, larger)
+    if len(set(picks.values())) < 2:
+        return None
+    values = {"n": len(post_models)}
+    parts = []
+    for i, (name, m) in enumerate(picks.items()):
+        parts.append(f"{name} prefers {{pick_{i}:law}}")
+        values[f"pick_{i}"] = m
+    return say("The criteria disagree on the {n} laws sampled: " + "; ".join(parts) + ".", **values)
+
+
+@rule(
+    "block.hardest",
+    where="blocks/{block}/where_models_fail/frequency_blocks/0",
+    row="blocks/{block}/where_models_fail/rows/0",
+)
+def _hardest(where, row, block):
+    if not where or not row:
+        return None
+    lead = row.get("phase_lead_measured_deg")
+    return say(
+        "Hardest: {f:g} c/s at {ohm:g} ohm (the smallest RMS there {law:law}'s, {rms:.3f}); "
+        "every law misses {table} {row_f:g} c/s, {v:g} V (|DF| {df:.3g}"
+        + (", lead {lead:.3g} deg" if lead is not None else "")
+        + ") by at least {miss:.3f}.",
+        f=where["frequency_hz"],
+        ohm=where["source_impedance_ohm"],
+        law=where["best_model"],
+        rms=where["best_rms_complex"],
+        table=row["table"],
+        row_f=row["frequency_hz"],
+        v=row["input_v"],
+        df=row["df_measured"],
+        lead=lead,
+        miss=row["smallest_complex_residual"],
     )
 
 
-def _span(values, fmt: str) -> str:
-    """``"a-b"`` of the smallest and largest of ``values`` in ``fmt``; one number if equal."""
-    lo, hi = fmt.format(min(values)), fmt.format(max(values))
-    return lo if lo == hi else f"{lo}-{hi}"
+def block_claims(results: dict, key: str) -> list[dict]:
+    """One block's statement: best law and margin, the posteriors, disagreement, hardest rows."""
+    return paragraph(
+        results,
+        *(
+            (f"block.{kind}", {"block": key})
+            for kind in ("best", "posteriors", "disagreement", "hardest")
+        ),
+    )
 
 
-def _mcmc_finding(blocks) -> str | None:
-    """The chains' convergence statistics (which chains did not converge: the conclusion)."""
-    diags = [
-        f["diagnostics"]
-        for rec in blocks.values()
-        for f in rec["fits_mcmc"].values()
-        if f.get("method", "mcmc") == "mcmc"
-    ]
-    nested = [
-        f["diagnostics"]
-        for rec in blocks.values()
-        for f in rec["fits_mcmc"].values()
-        if f.get("method") == "nested"
-    ]
-    if nested:
-        n_conv = sum(bool(d.get("converged")) for d in nested)
-        ev = [d["n_likelihood_evaluations"] for d in nested]
-        err = [d["log_evidence_error"] for d in nested]
-        return (
-            f"Nested sampling: {n_conv} of {len(nested)} posteriors meet the convergence rule "
-            f"({MIN_EFFECTIVE} effective draws, evidence error <= {MAX_LOG_EVIDENCE_ERROR}), in "
-            f"{_span(ev, '{:,.0f}')} likelihood evaluations; evidence errors "
-            f"{_span(err, '{:.2f}')}."
-        )
-    if not diags:
+# ------------------------------------------------------------------ across blocks
+@rule(
+    "findings.failures",
+    tables="blocks/*/tables",
+    worst="blocks/*/where_models_fail/rows",
+    inputs="blocks/*/fits_lsq/*/rows/input_v",
+    leads="blocks/*/fits_lsq/*/rows/phase_lead_measured_deg",
+)
+def _failures(tables, worst, inputs, leads):
+    """Where all laws fail, across the single-table blocks: amplitude and lead of the worst rows."""
+    rows, every_v, every_lead, per_table = [], [], [], 0
+    for k, t in tables.items():
+        if len(t or []) != 1 or not inputs.get(k):
+            continue
+        rows += worst[k] or []
+        per_table = max(per_table, len(worst[k] or []))
+        first = next(iter(inputs[k]))
+        every_v += inputs[k][first]
+        every_lead += leads[k][first]
+    if not rows:
         return None
-    n_conv = sum(bool(d.get("converged")) for d in diags)
-    ratio = [d["steps_over_tau"] for d in diags]
-    rhat = [d["rhat_max"] for d in diags]
-    n_given_up = sum(bool(d.get("steps_needed")) for d in diags)
-    return (
-        f"MCMC: {n_conv} of {len(diags)} chains meet the convergence rule (50 autocorrelation "
-        f"times, R-hat < 1.01, bulk ESS >= 400); steps/tau {min(ratio):.0f}-{max(ratio):.0f}, "
-        f"max R-hat {min(rhat):.3f}-{max(rhat):.3f}"
+
+    def median(xs):
+        return float(np.nanmedian([np.nan if x is None else x for x in xs]))
+
+    values = {
+        "n": len(rows),
+        "per_table": per_table,
+        "worst_v": median([w["input_v"] for w in rows]),
+        "all_v": median(every_v),
+        "worst_lead": median([w["phase_lead_measured_deg"] for w in rows]),
+        "all_lead": median(every_lead),
+    }
+    template = (
+        "Where all laws fail: the {n} rows that every law misses most ({per_table} per table) "
+        "have a median input of {worst_v:.3g} V (all rows: {all_v:.3g} V) and a median phase "
+        "lead of {worst_lead:.3g} deg (all rows: {all_lead:.3g} deg)"
+    )
+    if values["worst_v"] < 0.5 * values["all_v"]:
+        template += " -- they sit at the small-signal end of the tables"
+        if values["worst_lead"] > 1.5 * values["all_lead"]:
+            template += ", where the measured lead is large"
+    return say(template + ".", **values)
+
+
+_DIAGNOSTICS = "blocks/*/fits_mcmc/*/diagnostics/"
+
+
+@rule(
+    "findings.posteriors",
+    method="blocks/*/fits_mcmc/*/method",
+    converged=_DIAGNOSTICS + "converged",
+    evaluations=_DIAGNOSTICS + "n_likelihood_evaluations",
+    evidence_error=_DIAGNOSTICS + "log_evidence_error",
+    steps_over_tau=_DIAGNOSTICS + "steps_over_tau",
+    rhat_max=_DIAGNOSTICS + "rhat_max",
+    steps_needed=_DIAGNOSTICS + "steps_needed",
+    box_factor=_DIAGNOSTICS + "prior_sensitivity/boxes/*/factor",
+    box_consistent=_DIAGNOSTICS + "prior_sensitivity/boxes/*/consistent",
+)
+def _posterior_statement(
+    method,
+    converged,
+    evaluations,
+    evidence_error,
+    steps_over_tau,
+    rhat_max,
+    steps_needed,
+    box_factor,
+    box_consistent,
+):
+    """The posteriors' convergence statistics, and the widened prior boxes that missed."""
+    fits = [(k, m) for k, laws in method.items() for m in (laws or {})]
+
+    def of(field, kind):
+        return [field[k][m] for k, m in fits if (method[k][m] or "mcmc") == kind]
+
+    nested = of(converged, "nested")
+    if nested:
+        values = {
+            "n_conv": sum(bool(c) for c in nested),
+            "n": len(nested),
+            "eff": MIN_EFFECTIVE,
+            "max_err": MAX_LOG_EVIDENCE_ERROR,
+            "ev_low": min(of(evaluations, "nested")),
+            "ev_high": max(of(evaluations, "nested")),
+            "err_low": min(of(evidence_error, "nested")),
+            "err_high": max(of(evidence_error, "nested")),
+        }
+        template = (
+            "Nested sampling: {n_conv} of {n} posteriors meet the convergence rule ({eff} "
+            "effective draws, evidence error <= {max_err:g}), in "
+            + span(values["ev_low"], values["ev_high"], ",.0f", "ev_low", "ev_high")
+            + " likelihood evaluations; evidence errors "
+            + span(values["err_low"], values["err_high"], ".2f", "err_low", "err_high")
+            + "."
+        )
+        wide = [
+            consistent
+            for k, m in fits
+            for f, consistent in zip(box_factor[k][m] or [], box_consistent[k][m] or [])
+            if f is not None and f > 1
+        ]
+        if wide:
+            values.update(
+                n_strat=sum(c is not None for c in wide),
+                n_missed=sum(c is False for c in wide),
+                n_old=sum(c is None for c in wide),
+                by=MISSED_BY_ERRORS,
+            )
+            if values["n_missed"]:
+                template += (
+                    " With the prior box widened, {n_missed} of {n_strat} runs missed the "
+                    "posterior the prior's box holds (their own evidence more than {by:g} errors "
+                    "below the exact part inside it): not converged, their evidence the "
+                    "stratified estimate, a lower bound."
+                )
+            elif values["n_strat"] == 1:
+                template += (
+                    " With the prior box widened, the one run did not miss the posterior the "
+                    "prior's box holds."
+                )
+            elif values["n_strat"]:
+                template += (
+                    " With the prior box widened, none of the {n_strat} runs missed the "
+                    "posterior the prior's box holds."
+                )
+            if values["n_old"]:
+                template += (
+                    " {n_old} of the widened boxes hold no stratified estimate (a record "
+                    "from before it): their evidence is not a result."
+                )
+        return say(template, **values)
+    chains = of(converged, "mcmc")
+    if not chains:
+        return None
+    ratio, rhat = of(steps_over_tau, "mcmc"), of(rhat_max, "mcmc")
+    values = {
+        "n_conv": sum(bool(c) for c in chains),
+        "n": len(chains),
+        "taus": MIN_STEPS_OVER_TAU,
+        "rhat": RHAT_MAX,
+        "ess": MIN_ESS,
+        "ratio_low": min(ratio),
+        "ratio_high": max(ratio),
+        "rhat_low": min(rhat),
+        "rhat_high": max(rhat),
+        "n_early": sum(bool(s) for s in of(steps_needed, "mcmc")),
+    }
+    return say(
+        "MCMC: {n_conv} of {n} chains meet the convergence rule ({taus} autocorrelation times, "
+        "R-hat < {rhat:g}, bulk ESS >= {ess}); steps/tau {ratio_low:.0f}-{ratio_high:.0f}, max "
+        "R-hat {rhat_low:.3f}-{rhat_high:.3f}"
         + (
-            f"; {n_given_up} stopped early: at their autocorrelation times they need more "
-            "steps than the limit"
-            if n_given_up
+            "; {n_early} stopped early: at their autocorrelation times they need more steps "
+            "than the limit"
+            if values["n_early"]
             else ""
         )
-        + "."
+        + ".",
+        **values,
     )
 
 
-def _cross_findings(results) -> list[str]:
-    out = []
-    blocks = results["blocks"]
-    for d in results.get("cross_impedance", []):
-        names = _Names(results)
-        if d["rows"]:
-            r = d["rows"][0]
-            own = blocks.get(d["test_block"], {}).get("ranking_lsq")
-            own_text = (
-                f"; a fit to {d['test_block']} itself reaches {own[0]['rms_complex']:.3f}"
-                if own
-                else ""
-            )
-            out.append(
-                f"Cross-impedance, {d['core']}: fitted at {d['train_ohm']:g} ohm "
-                f"({d['train_block']}), {names(r['model'])} predicts the {d['test_ohm']:g} "
-                f"ohm data ({d['test_block']}) best with RMS complex residual "
-                f"{r['predict_rms_complex']:.3f} averaged over the series resistance's prior"
-                f"{_spread_text(r)} (training residual "
-                f"{r['train_rms_complex']:.3f}{own_text})."
-            )
-    return out
+@rule(
+    "findings.cross",
+    direction="cross_impedance/{index}",
+    own_rms="blocks/*/ranking_lsq/*/rms_complex",
+    **LSQ,
+)
+def _cross(direction, own_rms, models, aicc, index):
+    if not direction or not direction.get("rows"):
+        return None
+    r = direction["rows"][0]
+    test = direction["test_block"]
+    values = {
+        "core": direction["core"],
+        "train": direction["train_ohm"],
+        "train_block": direction["train_block"],
+        "law": r["model"],
+        "test": direction["test_ohm"],
+        "test_block": test,
+        "rms": r["predict_rms_complex"],
+        "train_rms": r["train_rms_complex"],
+    }
+    template = (
+        "Cross-impedance, {core}: fitted at {train:g} ohm ({train_block}), {law:law} predicts "
+        "the {test:g} ohm data ({test_block}) best with RMS complex residual {rms:.3f} averaged "
+        "over the series resistance's prior"
+    )
+    low, high = r.get("predict_rms_complex_min"), r.get("predict_rms_complex_max")
+    if low is not None and high is not None and low != high:
+        template += " ({low:.3f}-{high:.3f} across it)"
+        values.update(low=low, high=high)
+    template += " (training residual {train_rms:.3f}"
+    own = best_law(models.get(test) or [], aicc.get(test) or [])
+    if own is not None:
+        values.update(own=own, own_rms=_at(models[test], own_rms[test], own))
+        template += "; the best law fitted to {test_block} itself, {own:law}, reaches {own_rms:.3f}"
+    return say(template + ").", **values)
 
 
-def _spread_text(row) -> str:
-    low, high = row.get("predict_rms_complex_min"), row.get("predict_rms_complex_max")
-    if low is None or high is None or low == high:
-        return ""
-    return f" ({low:.3f}-{high:.3f} across it)"
+#: The columns of a small-signal scan its verdict reads.
+_SCAN_COLUMNS = [
+    "unbiased_error",
+    "common_bias_error",
+    "best_bias_error",
+    "implied_loss_angle_deg",
+    "max_loss_angle_any_bias_deg",
+]
 
 
-def _joint_findings(results) -> list[str]:
-    out, blocks = [], results["blocks"]
-    for core, keys in (("permalloy", ("B.1", "B.3")), ("deltamax", ("B.2", "B.5"))):
-        names = _Names(results)
-        joint = blocks.get(f"{core}-joint")
-        sep = [blocks[k] for k in keys if k in blocks and blocks[k]["ranking_lsq"]]
-        if joint and joint["ranking_lsq"] and sep:
-            j = joint["ranking_lsq"][0]
-            parts = ", ".join(f"{s['key']} {s['ranking_lsq'][0]['rms_complex']:.3f}" for s in sep)
-            out.append(
-                f"One parameter set for both impedances ({joint['key']}): best "
-                f"{names(j['model'])} with RMS {j['rms_complex']:.3f}, against the separate "
-                f"fits' best ({parts})."
-            )
-    return out
+@rule(
+    "findings.small_signal",
+    record="small_signal/{index}",
+)
+def _small_signal(record, index):
+    """The DC-bias test's verdict, made again from its rows
+    (:func:`fitdf.inference.small_signal.verdict`)."""
+    if not record or not record.get("rows"):
+        return None
+    return say(
+        "Small signals, {block} ({law:law}): {verdict}.",
+        block=record["block"],
+        law=record["model"],
+        verdict=verdict(pd.DataFrame(record["rows"])[_SCAN_COLUMNS].astype(float)),
+    )
 
 
+@rule(
+    "findings.joint",
+    tables="blocks/{block}/tables",
+    rms="blocks/*/ranking_lsq/*/rms_complex",
+    **LSQ,
+)
+def _joint(tables, rms, models, aicc, block):
+    """One parameter set for both impedances against the separate tables' best fits."""
+    if not tables or len(tables) < 2 or not models.get(block):
+        return None
+    j = best_law(models[block], aicc[block])
+    sep = [t for t in tables if best_law(models.get(t) or [], aicc.get(t) or [])]
+    if j is None or not sep:
+        return None
+    values = {"block": block, "law": j, "rms": _at(models[block], rms[block], j)}
+    parts = []
+    for i, t in enumerate(sep):
+        w = best_law(models[t], aicc[t])
+        parts.append(f"{{sep_{i}}} {{sep_rms_{i}:.3f}}")
+        values[f"sep_{i}"], values[f"sep_rms_{i}"] = t, _at(models[t], rms[t], w)
+    return say(
+        "One parameter set for both impedances ({block}): the best law by AICc, {law:law}, "
+        "has RMS {rms:.3f}, against the separate tables' best by AICc (" + ", ".join(parts) + ").",
+        **values,
+    )
+
+
+def findings(results: dict, physics=()) -> list:
+    """The statements after the conclusion, in order: each a list of claims (one paragraph,
+    a law named in full at its first mention), or a plain sentence where none is made yet.
+    ``physics``: the physics section's statements
+    (:func:`fitdf.report.physics_claims.physics_findings`), placed before the audit's."""
+    out = [block_claims(results, key) for key in results["blocks"]]
+    out += [paragraph(results, (kind, {})) for kind in ("findings.failures", "findings.posteriors")]
+    out += [
+        paragraph(results, ("findings.cross", {"index": i}))
+        for i in range(len(results.get("cross_impedance") or []))
+    ]
+    out += [
+        paragraph(results, ("findings.small_signal", {"index": i}))
+        for i in range(len(results.get("small_signal") or []))
+    ]
+    out += [
+        paragraph(results, ("findings.joint", {"block": key}))
+        for key, rec in results["blocks"].items()
+        if len(rec.get("tables") or []) > 1
+    ]
+    out += list(physics)
+    out += _audit_findings(results.get("audit", {}))
+    out.append(_limit_finding(results.get("limit_cycles", {})))
+    return [p for p in out if p]
+
+
+# ------------------------------------------------------------------ not yet claims
 def _audit_findings(audit) -> list[str]:
     if not audit.get("tables"):
         return []
@@ -531,51 +529,3 @@ def _limit_finding(lc) -> str | None:
         f"{df['amplitude_ratio'].max():.2f}) and predicted over measured frequency median "
         f"{df['omega_ratio'].median():.2f} over {int(df['amplitude_ratio'].notna().sum())} rows."
     )
-
-
-def findings(results: dict) -> list[str]:
-    """The detailed statements that follow the conclusion (the report's "Findings" list)."""
-    blocks = results["blocks"]
-    out = [t for t in (_block_finding(rec, results) for rec in blocks.values()) if t]
-    out += [t for t in (_failure_pattern(blocks), _mcmc_finding(blocks)) if t]
-    out += _cross_findings(results)
-    out += [
-        f"Small signals, {rec['block']} ({_Names(results)(rec['model'])}): {rec['verdict']}."
-        for rec in results.get("small_signal", [])
-    ]
-    out += _joint_findings(results)
-    out += _physics_findings(results.get("physics"))
-    out += _audit_findings(results.get("audit", {}))
-    lc = _limit_finding(results.get("limit_cycles", {}))
-    return out + ([lc] if lc else [])
-
-
-def _physics_findings(ph) -> list[str]:
-    """The physics section in one or two sentences: the aims not met, the rate-dependent loss."""
-    if not ph:
-        return []
-    missed = [a["aim"] for a in ph["aims"] if not a["met"]]
-    out = [
-        f"Physics: {len(ph['aims']) - len(missed)} of {len(ph['aims'])} aims met"
-        + (f"; not met: {', '.join(missed)}." if missed else ".")
-    ]
-    better = [
-        f"{key} ({r['model']}, AICc {r['delta_aicc']:+.1f})"
-        for key, rows in (ph.get("rate_dependent") or {}).items()
-        for r in rows
-        if r.get("delta_aicc") is not None and r["delta_aicc"] <= -2
-    ]
-    out.append(
-        "Rate-dependent losses (the dynamic chain) improve the fit by more than 2 in AICc on "
-        + (", ".join(better) if better else "no block")
-        + "."
-    )
-    fall = ph.get("supermalloy_fall")
-    if fall and "reproduced" in fall:
-        out.append(
-            f"Supermalloy's small-signal permeability falls {fall['fall_measured']:.2f}x from "
-            f"{fall['frequencies_hz'][0]:g} to {fall['frequencies_hz'][1]:g} c/s; the refit with "
-            f"rate-dependent losses gives {fall['fall_dynamic']:.2f}x"
-            + (" (reproduced within 20 %)." if fall["reproduced"] else ", not within 20 %.")
-        )
-    return out

@@ -15,6 +15,8 @@ import json
 from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.plots.summary import CAPTION as SUMMARY_CAPTION
 from fitdf.report.block_outline import _block_blocks
+from fitdf.report.claims import text
+from fitdf.report.conclusion import UNDETERMINED
 from fitdf.report.costs import phase_labels
 from fitdf.report.document import (
     DETAILS,
@@ -29,8 +31,9 @@ from fitdf.report.document import (
     law_names,
     slug,
 )
-from fitdf.report.findings import UNDETERMINED, conclusion, findings
+from fitdf.report.overview import regenerate_claims
 from fitdf.report.physics_outline import PHYSICS, physics_blocks
+from fitdf.report.words import report_words
 
 __all__ = ["build_document", "nav_links"]
 
@@ -77,7 +80,10 @@ def _machine_text(machine) -> str:
     )
 
 
-def _settings_text(res) -> list:
+def _settings_text(res, words=None) -> list:
+    """The settings list; its last line says how to regenerate the report (the
+    ``report.regenerate`` claim of ``words``, :func:`~fitdf.report.words.report_words`)."""
+    regenerate = (words or {}).get("claims", {}).get("regenerate") or regenerate_claims(res)
     s, t = res["settings"], res["timing"]
     mcmc = (
         "MCMC (emcee: a discarded pilot, then independent chains) for the best {top} "
@@ -145,7 +151,11 @@ def _settings_text(res) -> list:
         UL(
             [
                 f"fitdf {res['fitdf_version']}, seed {res['seed']}"
-                + (" (**quick** configuration)" if res.get("quick") else ""),
+                + (
+                    " (**quick** configuration)"
+                    if res.get("quick") or (res.get("run") or {}).get("run") == "quick"
+                    else ""
+                ),
                 f"laws: {', '.join(law(law_names(res), m) for m in s['models'])}; measurement "
                 f"chain `{s.get('chain', 'winding')}`"
                 + (
@@ -158,9 +168,7 @@ def _settings_text(res) -> list:
                 + f"; {mcmc}; {cv}",
                 _run_time_text(s, t),
                 _machine_text(t.get("machine")),
-                "regenerate with `fitdf report` (same seed, CPU and libraries: the same numbers; "
-                "on another CPU the optimisers stop a few last digits apart, RMS within about "
-                "0.2 % and AICc within 2, the rankings the same); every number is in `results.json`",
+                text(regenerate),
             ]
         )
     ]
@@ -194,36 +202,40 @@ def _reused_text(timing: dict) -> str:
     )
 
 
-def _summary_table(res):
+def _summary_table(res, words):
+    """One row per block: each criterion's best law, from the ``summary.block`` claims."""
     names = law_names(res)
-    rows = []
-    for rec in res["blocks"].values():
-        r = rec["ranking_lsq"]
-        if not r:
-            continue
-        m = rec["ranking_mcmc"][0]["model"] if rec["ranking_mcmc"] else None
-        rows.append(
-            [
-                f"[{rec['key']}](#{slug(rec['title'])})",
-                rec["title"],
-                law(names, r[0]["model"]),
-                r[0]["rms_complex"],
-                law(names, r[1]["model"]) if len(r) > 1 else None,
-                r[1]["rms_complex"] if len(r) > 1 else None,
-                law(names, m),
-            ]
-        )
+    rows = [c["values"] for c in words["claims"]["summary"]]
+    posterior = any(r.get("evidence_best") or r.get("loo_best") for r in rows)
+    head = [
+        "block",
+        "data",
+        "best by AICc (least squares)",
+        "RMS complex",
+        "runner-up by AICc",
+        "dAICc",
+    ] + (["best by the evidence", "best by LOO-IC"] if posterior else [])
     return TABLE(
+        head,
         [
-            "block",
-            "data",
-            "best law (least squares)",
-            "RMS complex",
-            "runner-up",
-            "RMS complex",
-            "best by LOO-IC (MCMC)",
+            [
+                f"[{r['block']}](#{slug(r['title'])})",
+                r["title"],
+                law(names, r["aicc_best"]),
+                r["rms"],
+                law(names, r.get("second")),
+                r.get("d_aicc"),
+            ]
+            + (
+                [
+                    law(names, r["evidence_best"]) or "not sampled",
+                    law(names, r["loo_best"]) or "not sampled",
+                ]
+                if posterior
+                else []
+            )
+            for r in rows
         ],
-        rows,
     )
 
 
@@ -484,30 +496,35 @@ def build_document(res: dict) -> list:
         "[The thesis's computed curves](#the-thesiss-computed-curves-graphs-41-47)",
         "[Models](#models)",
     ]
-    chain = res["settings"].get("chain", "winding")
+    words = report_words(res)
     doc = [
         H(1, TITLE),
-        P(
-            f"Every candidate hysteresis law, seen through the `{chain}` measurement chain, fitted to the measured "
-            "describing functions of Appendix B (thesis Chapter V) by least squares and posterior sampling, ranked, and used to "
-            "predict across source impedance and to predict limit cycles. Generated by `fitdf report`; do not edit."
-        ),
+        P(text(words["claims"]["intro"])),
         *_overview_blocks(res),
-        *_settings_text(res),
+        *_settings_text(res, words),
         H(2, "Contents"),
         UL(toc),
         H(2, "Findings"),
-        P(conclusion(res)),
+        P(text(words["claims"]["conclusion"])),
         P("In detail (every statement is generated from the numbers below):"),
-        UL(findings(res)),
+        UL(words["findings"]),
         H(2, "Summary"),
-        _summary_table(res),
+        P(
+            "Each block's best law by each criterion, each by its own numbers: AICc of the "
+            "least-squares fits (every law)"
+            + (
+                ", the Bayesian evidence and LOO-IC of the posteriors (the laws sampled)."
+                if any(b["ranking_mcmc"] for b in blocks)
+                else "; no posterior was sampled."
+            )
+        ),
+        _summary_table(res, words),
     ]
     names = law_names(res)
     for b in blocks:
         doc += _block_blocks(b, names)
     doc += (
-        physics_blocks(res)
+        physics_blocks(res, words)
         + _cross_blocks(res)
         + _small_signal_blocks(res)
         + _limit_blocks(res)

@@ -1,10 +1,13 @@
 """The report's "What the data say" section: the physics the laws leave out, as records.
 
-:func:`physics_record` gathers, from the report's own fits:
+:func:`physics_record` gathers, from the report's own fits and the bundled tables:
 
-* the **aims** on the best law's residual of each block and of each cross-impedance
-  direction, and on the best fits' material constants, each stated as met or not with its
-  number (:data:`RMS_AIMS`, :data:`CROSS_AIMS`);
+* the tables' **printed precision** on each block's rows (:func:`precision_record`): the RMS
+  complex residual that rounding to the printed digits alone would give, and the readings
+  the tables repeat, against which the best law's residual is read;
+* the **catalogue ranges**: the best joint fits' material constants against Appendix A
+  (:data:`CATALOGUE_CONSTANTS`), inside at the nominal stacking factor, for some stacking
+  factor of the range, or not;
 * the **reversed column** the audit finds (Table B.5, 10 c/s phase): the affected blocks'
   best laws fitted with the column as printed beside the default, reversed, policy;
 * the **iron fraction** each core's best joint fit implies with Appendix A's ``B_p``
@@ -16,97 +19,120 @@
   small-signal permeability (Table B.4, 3 and 50 c/s) within 20 %;
 * the **Jiles-Atherton** fits whose mean field sits at its limit.
 
-Everything is computed from the fits handed in; nothing is typed by hand.
+The best law of a block is :func:`fitdf.report.criteria.best_law` (the lowest AICc).
+Everything is computed from the fits and tables handed in; nothing is typed by hand.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
 from fitdf._json import clean
+from fitdf.data import datasets
+from fitdf.data.resolve import resolve_data
 from fitdf.inference.small_signal import series_permeability, small_signal_permeability
+from fitdf.report.criteria import best_law
 
 __all__ = [
     "physics_record",
+    "precision_record",
+    "repeated_readings",
     "reversal_record",
     "rate_dependent_record",
     "supermalloy_fall",
-    "RMS_AIMS",
-    "CROSS_AIMS",
+    "CATALOGUE_CONSTANTS",
     "FALL_TOLERANCE",
 ]
 
-#: Aims on the best law's RMS complex residual (least squares, ``voltage`` chain) per block.
-RMS_AIMS = {
-    "B.1": 0.025,
-    "B.2": 0.045,
-    "B.3": 0.045,
-    "B.4": 0.045,
-    "B.5": 0.04,
-    "permalloy-joint": 0.04,
-    "deltamax-joint": 0.055,
-}
-#: Aims on the best cross-impedance prediction, by (core, training ohm, test ohm).
-CROSS_AIMS = {
-    ("permalloy", 0.0, 600.0): 0.085,
-    ("permalloy", 600.0, 0.0): 0.05,
-    ("deltamax", 0.0, 600.0): 0.08,
-    ("deltamax", 600.0, 0.0): 0.08,
-}
-#: Material constants whose agreement with Appendix A is an aim (Permalloy's and Deltamax's).
-CONSTANT_AIMS = ("peak_flux_density_Bp", "residual_induction_Br", "coercive_force_Hc")
+#: The material constants of Permalloy's and Deltamax's best joint fits set beside their
+#: Appendix A catalogue ranges.
+CATALOGUE_CONSTANTS = ("peak_flux_density_Bp", "residual_induction_Br", "coercive_force_Hc")
 #: Relative tolerance on Supermalloy's small-signal permeability fall from 3 to 50 c/s.
 FALL_TOLERANCE = 0.2
 
 
 def _best(rec: dict) -> dict | None:
+    """The ranking row of the block's best law (:func:`~fitdf.report.criteria.best_law`)."""
     rows = rec.get("ranking_lsq") or []
-    return rows[0] if rows else None
+    law = best_law([r["model"] for r in rows], [r["aicc"] for r in rows])
+    return next((r for r in rows if r["model"] == law), None)
 
 
-def _rms_aims(blocks: dict, reversal: dict) -> list[dict]:
+def _steps(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's printed step of ``|DF|`` and of the phase lead (degrees).
+
+    ``|DF|``: ``10**-decimals``, a cell printed with fewer decimals than its block's usual
+    (the most common of its table and frequency) read at the usual, as a dropped trailing
+    zero (``0.95`` among ``0.955`` and ``0.942``; ``1`` among ``0.99``). The lead: 0.5 for a
+    cell printed with a half, else 1 (the tables print whole and half degrees)."""
+    keys = [frame[c] for c in ("table", "frequency_hz") if c in frame]
+    decimals = pd.to_numeric(frame["df_reported_decimals"], errors="coerce").fillna(0)
+    usual = decimals.groupby(keys).transform(lambda d: d.mode().max())
+    decimals = np.maximum(decimals.to_numpy(float), usual.to_numpy(float))
+    lead = frame["phase_lead_deg"].to_numpy(float)
+    return 10.0**-decimals, np.where(lead % 1 != 0, 0.5, 1.0)
+
+
+def precision_record(data: str) -> dict:
+    """The printed precision of the rows a block's fits use (``data``: its dataset name, the
+    default row policy).
+
+    Rounding a value to a step ``q`` leaves an error uniform on ``+-q/2``, of variance
+    ``q**2 / 12``; on the complex DF ``D = |D| e^(j lead)`` the magnitude's and the phase's
+    add, ``q_m**2 / 12 + (|D| q_lead)**2 / 12`` (lead in radians). Their mean over the rows,
+    square-rooted, is the RMS complex residual that rounding alone would give a law that
+    describes the core exactly: the floor of the report's ``rms_complex``.
+    """
+    rows = resolve_data(data, "default").rows
+    q_mag, q_lead = _steps(rows)
+    df = rows["df_reported"].to_numpy(float)
+    var = q_mag**2 / 12 + (df * np.deg2rad(q_lead)) ** 2 / 12
+    return {
+        "rows": len(rows),
+        "df_step": [float(q_mag.min()), float(q_mag.max())],
+        "phase_step_deg": [float(q_lead.min()), float(q_lead.max())],
+        "rounding_rms_complex": float(np.sqrt(np.mean(var))),
+        "rounding_rms_magnitude": float(np.sqrt(np.mean(q_mag**2 / 12))),
+        "rounding_rms_phase_deg": float(np.sqrt(np.mean(q_lead**2 / 12))),
+        "repeats": repeated_readings(datasets.load(data)),
+    }
+
+
+def repeated_readings(frame: pd.DataFrame) -> list[dict]:
+    """The readings a table prints more than once: the same core, source impedance, frequency
+    and input (in one table, or in two whose blocks overlap), each with its printed values,
+    whether they are identical (a repeated print, not a second reading), and the spread of
+    the complex readings (the RMS of their deviations from their mean, with ``n - 1``; of the
+    magnitudes alone where a phase is missing)."""
+    keys = [c for c in ("core", "source_impedance_ohm", "frequency_hz", "input_v") if c in frame]
     out = []
-    for key, target in RMS_AIMS.items():
-        rec = blocks.get(key)
-        best = _best(rec) if rec else None
-        if best is None:
+    for key, g in frame.groupby(keys, dropna=False):
+        if len(g) < 2:
             continue
-        row = {
-            "aim": f"best law on {key}",
-            "target": target,
-            "value": best["rms_complex"],
-            "law": best["model"],
-            "met": bool(best["rms_complex"] <= target),
-        }
-        printed = (reversal.get("blocks") or {}).get(key, {}).get("as_printed") or {}
-        if printed:
-            law, value = min(printed.items(), key=lambda kv: kv[1]["rms_complex"])
-            row["as_printed"] = {"law": law, "value": value["rms_complex"]}
-        out.append(row)
-    return out
-
-
-def _cross_aims(cross: list) -> list[dict]:
-    out = []
-    for d in cross:
-        target = CROSS_AIMS.get((d["core"], float(d["train_ohm"]), float(d["test_ohm"])))
-        if target is None or not d["rows"]:
-            continue
-        r = d["rows"][0]
+        df = g["df_reported"].to_numpy(float)
+        lead = g["phase_lead_deg"].to_numpy(float)
+        values = df * np.exp(1j * np.deg2rad(lead)) if np.isfinite(lead).all() else df
         out.append(
             {
-                "aim": f"{d['core']} {d['train_ohm']:g} -> {d['test_ohm']:g} ohm",
-                "target": target,
-                "value": r["predict_rms_complex"],
-                "law": r["model"],
-                "met": bool(r["predict_rms_complex"] <= target),
-                "spread": [r.get("predict_rms_complex_min"), r.get("predict_rms_complex_max")],
+                **dict(zip(keys, key)),
+                "tables": sorted(g["table"].astype(str).unique()) if "table" in g else [],
+                "n": len(g),
+                "df_reported": df.tolist(),
+                "phase_lead_deg": lead.tolist(),
+                "identical": bool(
+                    np.all(df == df[0]) and np.array_equal(lead, np.full_like(lead, lead[0]), True)
+                ),
+                "spread": float(
+                    np.sqrt(np.sum(np.abs(values - values.mean()) ** 2) / (len(g) - 1))
+                ),
+                "spread_of": "complex" if np.iscomplexobj(values) else "magnitude",
             }
         )
     return out
 
 
-def _constant_aims(blocks: dict) -> list[dict]:
+def _catalogue(blocks: dict) -> list[dict]:
     """Permalloy's and Deltamax's best joint fits' B_p, B_r and H_c against Appendix A: inside at
     the nominal stacking factor, inside for some stacking factor of the range, or not."""
     out = []
@@ -117,19 +143,20 @@ def _constant_aims(blocks: dict) -> list[dict]:
             continue
         fit = rec["fits_lsq"].get(best["model"]) or {}
         for c in fit.get("appendix_a_check") or []:
-            if c["quantity"] not in CONSTANT_AIMS:
+            if c["quantity"] not in CATALOGUE_CONSTANTS:
                 continue
-            met = bool(c["inside"])
             out.append(
                 {
-                    "aim": f"{rec['core']} {c['quantity']} inside Appendix A",
+                    "block": key,
+                    "core": rec["core"],
+                    "quantity": c["quantity"],
                     "law": best["model"],
                     "value": c["fitted"],
                     "range": [c["low"], c["high"]],
                     "value_range": [c.get("fitted_low"), c.get("fitted_high")],
                     "unit": c["unit"],
-                    "met": met,
-                    "inside_for_some_stacking_factor": bool(c.get("inside_range", met)),
+                    "inside": bool(c["inside"]),
+                    "inside_for_some_stacking_factor": bool(c.get("inside_range", c["inside"])),
                     "determined": c.get("determined"),
                 }
             )
@@ -302,8 +329,9 @@ def physics_record(
     static_cv: dict,
     supermalloy: tuple,
 ) -> dict:
-    """The section's record (JSON-ready): the aims, the reversed column, the iron fraction and
-    series resistance of the joint fits, the rate-dependent loss, Jiles-Atherton's mean field.
+    """The section's record (JSON-ready): the printed precision of each block, the catalogue
+    ranges of the joint fits' constants, the reversed column, the iron fraction and series
+    resistance of the joint fits, the rate-dependent loss, Jiles-Atherton's mean field.
 
     ``supermalloy``: ``(static FitResult, dynamic FitResult or None)`` of Table B.4's best law.
     """
@@ -339,9 +367,8 @@ def physics_record(
         ja.append({"block": key, "zeta": zeta, "at_limit": bool(limit), "warning": limit[:1]})
     return clean(
         {
-            "aims": _rms_aims(blocks, reversal)
-            + _cross_aims(results.get("cross_impedance") or [])
-            + _constant_aims(blocks),
+            "precision": {key: precision_record(rec["data"]) for key, rec in blocks.items()},
+            "catalogue": _catalogue(blocks),
             "reversal": reversal,
             "joint": joint,
             "rate_dependent": rate_dependent_record(blocks, dynamic, static_cv),

@@ -1,6 +1,8 @@
 """The report's "What the data say" section, as document blocks (:mod:`fitdf.report.document`).
 
-Renders :func:`fitdf.report.physics.physics_record`: the aims met or not, the reversed column
+Renders :func:`fitdf.report.physics.physics_record` and the claims of
+:mod:`fitdf.report.physics_claims`: the best laws' residuals against the tables' printed
+precision, the joint fits' constants against their catalogue ranges, the reversed column
 both ways, the iron fraction and series resistance the joint fits imply, the rate-dependent
 loss beside the static laws and Supermalloy's small-signal permeability, Jiles-Atherton's
 mean field.
@@ -8,38 +10,112 @@ mean field.
 
 from __future__ import annotations
 
+from fitdf.data.cores import STACKING_FACTOR
+from fitdf.report.claims import text
 from fitdf.report.document import TABLE, H, P, fmt, law, law_names
 from fitdf.report.physics import FALL_TOLERANCE
+from fitdf.report.physics_claims import physics_claims
 
 __all__ = ["physics_blocks", "PHYSICS"]
 
 PHYSICS = "What the data say: the physics the laws leave out"
 
 
-def _aims(aims: list, names: dict) -> list:
+def _range(low, high) -> str:
+    """``low-high``, or one number when they are equal."""
+    return fmt(low) if low == high else f"{fmt(low)}-{fmt(high)}"
+
+
+def _precision(claims: dict, names: dict) -> list:
+    """The best laws' residuals against the tables' printed precision: the sentence, then a
+    row per block and per cross-impedance direction (the claims' values)."""
+    out = [P(text(claims["precision"]))] if claims["precision"] else []
+    rows = [c["values"] for c in claims["precision_blocks"]]
+    if rows:
+        out.append(
+            TABLE(
+                [
+                    "block",
+                    "best law (AICc)",
+                    "RMS complex",
+                    "rounding alone",
+                    "ratio",
+                    "|DF| printed to",
+                    "lead printed to (deg)",
+                ],
+                [
+                    [
+                        r["block"],
+                        law(names, r["law"]),
+                        r["rms"],
+                        r["rounding"],
+                        r["ratio"],
+                        _range(r["df_low"], r["df_high"]),
+                        _range(r["lead_low"], r["lead_high"]),
+                    ]
+                    for r in rows
+                ],
+            )
+        )
+    cross = [c["values"] for c in claims["precision_cross"]]
+    if cross:
+        out.append(
+            TABLE(
+                [
+                    "prediction",
+                    "law",
+                    "RMS complex",
+                    "the target's own best fit",
+                    "ratio",
+                    "target's rounding",
+                    "ratio",
+                ],
+                [
+                    [
+                        f"{r['core']} {fmt(r['train'])} -> {fmt(r['test'])} ohm",
+                        law(names, r["law"]),
+                        r["rms"],
+                        f"{fmt(r['own'])} ({law(names, r['own_law'])})",
+                        r["ratio_own"],
+                        r["rounding"],
+                        r["ratio_rounding"],
+                    ]
+                    for r in cross
+                ],
+            )
+        )
+    return out
+
+
+def _catalogue(catalogue: list, claims: dict, names: dict) -> list:
+    """The joint fits' constants against their Appendix A ranges."""
+    if not catalogue:
+        return []
     rows = []
-    for a in aims:
-        if "target" in a:
-            value = fmt(a["value"], 3)
-            if a.get("as_printed"):
-                value += f" (as printed: {fmt(a['as_printed']['value'], 3)})"
-            if a.get("spread") and None not in a["spread"]:
-                value += f" (over the resistance prior {fmt(a['spread'][0], 3)}-{fmt(a['spread'][1], 3)})"
-            target = f"<= {fmt(a['target'], 3)}"
-        else:
-            value = f"{fmt(a['value'], 3)} {a['unit']}"
-            low, high = a["value_range"]
-            if low is not None and low != high:
-                value += f" ({fmt(low, 3)}-{fmt(high, 3)} over the stacking factor)"
-            hi = "" if a["range"][1] is None else fmt(a["range"][1], 3)
-            target = f"{fmt(a['range'][0], 3)}-{hi} {a['unit']}"
-        met = "met" if a["met"] else "not met"
-        if not a["met"] and a.get("inside_for_some_stacking_factor"):
-            met += " at 0.85; inside for a stacking factor of the range"
-        if a.get("determined"):
-            met += f" (determined {a['determined']})"
-        rows.append([a["aim"], law(names, a.get("law")), value, target, met])
-    return [TABLE(["aim", "law", "value", "aim's bound", "verdict"], rows)]
+    for c in catalogue:
+        value = f"{fmt(c['value'], 3)} {c['unit']}"
+        low, high = c["value_range"]
+        if low is not None and low != high:
+            value += f" ({fmt(low, 3)}-{fmt(high, 3)} over the stacking factor)"
+        hi = "" if c["range"][1] is None else fmt(c["range"][1], 3)
+        verdict = "inside" if c["inside"] else "outside"
+        if not c["inside"] and c.get("inside_for_some_stacking_factor"):
+            verdict += f" at {STACKING_FACTOR:g}; inside for a stacking factor of the range"
+        if c.get("determined"):
+            verdict += f" (determined {c['determined']})"
+        rows.append(
+            [
+                f"{c['core']} {c['quantity']}",
+                law(names, c.get("law")),
+                value,
+                f"{fmt(c['range'][0], 3)}-{hi} {c['unit']}",
+                verdict,
+            ]
+        )
+    return [
+        P(text(claims["catalogue"])),
+        TABLE(["constant", "law", "fitted", "Appendix A", "against the range"], rows),
+    ]
 
 
 def _reversal(rev: dict, names: dict) -> list:
@@ -201,35 +277,26 @@ def _fall(f: dict | None, names: dict) -> list:
     return [P(text + why)]
 
 
-def _ja(ja: list) -> list:
-    at = [j for j in ja if j.get("at_limit")]
-    if not at:
-        return []
-    where = ", ".join(j["block"] for j in at)
-    return [
-        P(
-            f"Jiles-Atherton's mean-field ratio zeta sits at its physical limit 1 on {where}: the "
-            "anhysteretic curve's initial susceptibility diverges there, and the data determine only a "
-            f"lower bound on it. {at[0]['warning'][0] if at[0]['warning'] else ''}"
-        )
-    ]
-
-
-def physics_blocks(res: dict) -> list:
-    """The section (nothing when the record has none)."""
+def physics_blocks(res: dict, words=None) -> list:
+    """The section (nothing when the record has none); ``words``: the report's
+    (:func:`fitdf.report.words.report_words`), whose physics claims it shows."""
     ph = res.get("physics")
     if not ph:
         return []
     names = law_names(res)
-    met = sum(a["met"] for a in ph["aims"])
+    claims = (words or {}).get("claims", {}).get("physics") or physics_claims(res)
     return [
         H(2, PHYSICS),
         P(
-            f"The aims on what the laws reach, {met} of {len(ph['aims'])} met (best law, least squares, the "
-            "exact `voltage` chain, the default row policy; cross-impedance averaged over the series "
-            "resistance's prior; the material constants of each core's best joint fit)."
+            "What the laws reach, read against what the tables can show: the best law's RMS "
+            "complex residual (least squares, the exact `voltage` chain, the default row "
+            "policy) beside the RMS that rounding to the printed digits alone gives, and the "
+            "cross-impedance predictions (averaged over the series resistance's prior) beside "
+            "the target table's own best fit."
         ),
-        *_aims(ph["aims"], names),
+        *_precision(claims, names),
+        H(3, "Material constants against the catalogue"),
+        *_catalogue(ph.get("catalogue") or [], claims, names),
         H(3, "A column printed in reverse order"),
         *_reversal(ph.get("reversal") or {}, names),
         H(3, "Iron fraction and series resistance"),
@@ -237,5 +304,5 @@ def physics_blocks(res: dict) -> list:
         H(3, "Rate-dependent loss"),
         *_rate_dependent(ph.get("rate_dependent") or {}, names),
         *_fall(ph.get("supermalloy_fall"), names),
-        *_ja(ph.get("jiles_atherton") or []),
+        *([P(text(claims["jiles_atherton"]))] if claims["jiles_atherton"] else []),
     ]

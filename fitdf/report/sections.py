@@ -2,8 +2,8 @@
 
 Helpers of :mod:`fitdf.report`: they turn fit results into plain dicts (what
 ``results.json`` holds and :mod:`fitdf.report.render` renders) and draw and save each
-block's figures (run inside the report's worker processes). The "Findings" sentences
-are written by :mod:`fitdf.report.findings` (:func:`findings` is re-exported here).
+block's figures (run inside the report's worker processes). The report's sentences are
+claims of :mod:`fitdf.report.words`.
 """
 
 from __future__ import annotations
@@ -34,7 +34,6 @@ from fitdf.plots import (
 from fitdf.plots.limit_cycles import plot_thesis_comparison
 from fitdf.plots.summary import plot_summary
 from fitdf.plots.thesis import THESIS_GRAPHS
-from fitdf.report.findings import findings
 from fitdf.thesis import thesis_limit_cycle_comparison
 
 __all__ = [
@@ -45,7 +44,6 @@ __all__ = [
     "cross_record",
     "small_signal_record",
     "audit_record",
-    "findings",
     "limit_cycle_section",
     "limit_cycles_switched_off",
     "model_descriptions",
