@@ -19,6 +19,7 @@ import pandas as pd
 from fitdf.data.cores import STACKING_FACTOR, STACKING_FACTOR_RANGE
 from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.report.document import law, law_names
+from fitdf.report.supermalloy import supermalloy_sentences
 
 __all__ = [
     "findings",
@@ -570,12 +571,6 @@ def _physics_findings(ph) -> list[str]:
         + (", ".join(better) if better else "no block")
         + "."
     )
-    fall = ph.get("supermalloy_fall")
-    if fall and "reproduced" in fall:
-        out.append(
-            f"Supermalloy's small-signal permeability falls {fall['fall_measured']:.2f}x from "
-            f"{fall['frequencies_hz'][0]:g} to {fall['frequencies_hz'][1]:g} c/s; the refit with "
-            f"rate-dependent losses gives {fall['fall_dynamic']:.2f}x"
-            + (" (reproduced within 20 %)." if fall["reproduced"] else ", not within 20 %.")
-        )
+    if ph.get("supermalloy"):
+        out.append(supermalloy_sentences(ph["supermalloy"])["finding"])
     return out
