@@ -237,7 +237,6 @@ def matched_flux(static, dynamic=None, *, geometry=None, draws=DRAWS, seed=0) ->
     rows_dyn = row_permeability(dynamic, geometry) if dynamic is not None else None
     d_flux, d_mu = drawn_permeability(static, geometry, draws, seed)
     flux, freq, inp = (rows[c].to_numpy() for c in ("flux_vs", "frequency_hz", "input_v"))
-    mu_all = _complex(rows)
     stretch = {}  # frequency -> positions of its rising stretch
     for f in np.unique(freq):
         mine = np.flatnonzero(freq == f)
@@ -247,6 +246,30 @@ def matched_flux(static, dynamic=None, *, geometry=None, draws=DRAWS, seed=0) ->
     top = min(flux[r].max() for r in stretch.values())
     above = common * 2.0 ** np.arange(1, DOUBLINGS + 1)
     levels = np.concatenate([anchors, above[above <= top]])
+    table, drawn = _at_levels(levels, stretch, rows, rows_dyn, curves, (d_flux, d_mu))
+    levels = pd.DataFrame(table).sort_values(["level_vs", "frequency_hz"], ignore_index=True)
+    lo, hi = (np.percentile(d_mu.real, q, axis=0) for q in _QUANTILES)
+    f_lo, f_hi = (np.percentile(d_flux, q, axis=0) for q in _QUANTILES)
+    by_level = _by_level(levels, drawn)
+    scatter = float(by_level.loc[by_level["level_vs"] == common, "scatter"].iloc[0])
+    return MatchedFlux(
+        levels=levels,
+        frequency=by_level,
+        small_flux=_small_flux(levels, drawn, common, scatter),
+        rows=rows.assign(mu_lo=lo, mu_hi=hi, flux_lo=f_lo, flux_hi=f_hi),
+        curves=curves,
+        fits={k: _fit_record(r) for k, r in fits.items()},
+        common_vs=float(common),
+        draws=int(draws),
+        seed=int(seed),
+    )
+
+
+def _at_levels(levels, stretch, rows, rows_dyn, curves, drawn_rows):
+    """One record per (level, frequency whose rising stretch spans it), and the draws of the
+    rows' complex ``mu`` there, keyed the same way."""
+    flux, mu_all = rows["flux_vs"].to_numpy(), _complex(rows)
+    d_flux, d_mu = drawn_rows
     table, drawn = [], {}
     for f, rise in stretch.items():
         own = flux[rise][0]
@@ -269,22 +292,7 @@ def matched_flux(static, dynamic=None, *, geometry=None, draws=DRAWS, seed=0) ->
                 row["mu_rows_dynamic"] = float(np.real(mu_dyn))
                 row.update(_law("dynamic", _law_at(level, laws["dynamic"])))
             table.append(row)
-    levels = pd.DataFrame(table).sort_values(["level_vs", "frequency_hz"], ignore_index=True)
-    lo, hi = (np.percentile(d_mu.real, q, axis=0) for q in _QUANTILES)
-    f_lo, f_hi = (np.percentile(d_flux, q, axis=0) for q in _QUANTILES)
-    by_level = _by_level(levels, drawn)
-    scatter = float(by_level.loc[by_level["level_vs"] == common, "scatter"].iloc[0])
-    return MatchedFlux(
-        levels=levels,
-        frequency=by_level,
-        small_flux=_small_flux(levels, drawn, common, scatter),
-        rows=rows.assign(mu_lo=lo, mu_hi=hi, flux_lo=f_lo, flux_hi=f_hi),
-        curves=curves,
-        fits={k: _fit_record(r) for k, r in fits.items()},
-        common_vs=float(common),
-        draws=int(draws),
-        seed=int(seed),
-    )
+    return table, drawn
 
 
 def _fit_record(result) -> dict:
