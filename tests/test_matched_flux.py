@@ -3,6 +3,7 @@ printed precision of a reading (fitdf.data.precision), against computations made
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from types import SimpleNamespace
 
@@ -15,10 +16,11 @@ from supermalloy_fits import DYNAMIC, STATIC, near_optimum
 
 from fitdf import datasets
 from fitdf.data.cores import core_geometry
+from fitdf.data.fitdata import FitData
 from fitdf.data.precision import reading_resolution
 from fitdf.data.resolve import resolve_data
 from fitdf.errors import ModelError
-from fitdf.inference.matched_flux import DOUBLINGS, log_interp, matched_flux
+from fitdf.inference.matched_flux import DOUBLINGS, _rising, log_interp, matched_flux
 from fitdf.inference.permeability import (
     drawn_permeability,
     reading_flux,
@@ -248,8 +250,13 @@ def test_a_rate_independent_law_read_as_a_sinusoidal_current_has_no_frequency_de
     assert len(slopes) >= 4 and np.abs(slopes).max() < 1e-3
 
 
-def test_printed_precision_draws_are_seeded_and_bracket_the_printed_corners(fits):
+def test_printed_precision_draws_are_seeded_and_bracket_the_printed_corners(fits, compared):
     static = fits[0]
+    # the rows' ranges are the central 95 % of the comparison's own draws
+    flux, mu = drawn_permeability(static, GEOMETRY, 400, seed=3)
+    np.testing.assert_allclose(compared.rows["mu_lo"], np.percentile(mu.real, 2.5, axis=0))
+    np.testing.assert_allclose(compared.rows["mu_hi"], np.percentile(mu.real, 97.5, axis=0))
+    np.testing.assert_allclose(compared.rows["flux_hi"], np.percentile(flux, 97.5, axis=0))
     a = drawn_permeability(static, GEOMETRY, 300, seed=5)
     b = drawn_permeability(static, GEOMETRY, 300, seed=5)
     c = drawn_permeability(static, GEOMETRY, 300, seed=6)
@@ -267,6 +274,14 @@ def test_printed_precision_draws_are_seeded_and_bracket_the_printed_corners(fits
     drawn = a[1][:, row].real
     assert mu_c.min() <= drawn.min() and drawn.max() <= mu_c.max()
     assert drawn.max() - drawn.min() > 0.5 * (mu_c.max() - mu_c.min())
+    # read back through the circuit, each row's draws fill its printed rectangle: 50 c/s,
+    # 0.2 V is printed 0.805 at 13 deg (half units 0.0005 and 0.5 deg)
+    row = np.flatnonzero((d.frequency == 50.0) & (d.amplitude == 0.2))[0]
+    Z = 2j * np.pi * 50.0 * GEOMETRY.inductance_per_permeability * a[1][:, row]
+    back = g * Z / (R + Z)
+    for value, centre, half in ((np.abs(back), 0.805, 5e-4), (np.angle(back, deg=True), 13, 0.5)):
+        assert np.all(np.abs(value - centre) <= half * (1 + 1e-9))
+        assert value.max() - value.min() > 1.8 * half
 
 
 def test_one_table_at_one_impedance_and_a_geometry_are_required():
@@ -278,3 +293,32 @@ def test_one_table_at_one_impedance_and_a_geometry_are_required():
     fake = SimpleNamespace(problem=alone, values={"r_series": 60.0, "gain": 1.0})
     with pytest.raises(ModelError, match="geometry"):
         row_permeability(fake)
+
+
+def test_rising_stretch_ends_where_the_flux_first_stops_rising():
+    """A repeated flux (a row on the saturation flat) ends the stretch: the flux no longer
+    orders the rows there."""
+    flux = np.array([3.0, 1.0, 2.0, 2.0, 4.0])
+    inputs = np.array([0.3, 0.1, 0.2, 0.25, 0.4])
+    assert list(_rising(flux, inputs)) == [1, 2]
+    assert list(_rising(np.array([1.0, 2.0, 3.0]), np.array([1.0, 2.0, 3.0]))) == [0, 1, 2]
+
+
+def test_smallest_fluxes_a_rounding_apart_are_one_level_own_to_both(fits):
+    """6 and 10 c/s print the same smallest flux; moved 1e-12 apart they stay one level, at
+    which both give their own smallest row."""
+    static = fits[0]
+    d = static.problem.data
+    row = np.flatnonzero((d.frequency == 10.0) & (d.amplitude == 0.1))[0]
+    measured = d.measured.copy()
+    measured[row] *= 1 + 1e-12
+    moved = FitData(
+        d.amplitude, d.frequency, d.source_impedance, measured, d.group, d.rows, d.label, d.core
+    )
+    p = static.problem
+    problem = FitProblem(moved, p.model, p.chain, p.noise, p.fixed, p.geometry)
+    got = matched_flux(dataclasses.replace(static, problem=problem), draws=20)
+    own = got.levels[got.levels["own"]]
+    shared = own.loc[own["frequency_hz"].isin([6.0, 10.0]), "level_vs"]
+    assert len(shared) == 2 and shared.nunique() == 1
+    assert sorted(got.small_flux["frequency_hz"]) == [3.0, 6.0, 10.0, 30.0, 50.0]

@@ -17,6 +17,7 @@ from fitdf.report.physics_outline import _supermalloy
 from fitdf.report.supermalloy import (
     FIGURE,
     RISE_WORDS,
+    sentence_fields,
     supermalloy_figure,
     supermalloy_record,
     supermalloy_sentences,
@@ -188,6 +189,23 @@ def test_words_turn_at_their_boundaries(record):
     for i, r in enumerate(sorted(at, key=lambda r: r["frequency_hz"])):
         r["mu"] = 3e4 - i
     assert "falling with frequency" in supermalloy_sentences(rec)["matched"]
+    # "rises with the flux amplitude" only if every frequency's mu' rises to the common level
+    assert ") rises with the flux amplitude" in supermalloy_sentences(rec)["matched"]
+    below = next(r for r in rec["small_flux"] if r["flux_vs"] < rec["common_vs"])
+    below["rise"] = 1.0
+    assert ") changes with the flux amplitude" in supermalloy_sentences(rec)["matched"]
+    # the levels whose interval holds a law's slope are counted from their own verdicts
+    levels = [r for r in rec["frequency"] if r["n_frequencies"] >= 3]
+    held = sum(bool(r["contains_static"]) for r in levels)
+    levels[0]["contains_static"] = not levels[0]["contains_static"]
+    held += 1 if levels[0]["contains_static"] else -1
+    assert f"at {held} of {len(levels)}" in supermalloy_sentences(rec)["matched"]
+    # the small-flux sentence speaks of the frequency that reaches the smallest flux
+    fields = sentence_fields(rec)
+    assert fields["deepest"]["flux_vs"] == min(r["flux_vs"] for r in rec["small_flux"])
+    other = next(r for r in rec["small_flux"] if r is not fields["deepest"])
+    other["flux_vs"] = 0.5 * fields["deepest"]["flux_vs"]
+    assert sentence_fields(rec)["deepest"] is other
     # without a refit the dynamic clauses go
     rec.pop("curves")
     rec["fits"].pop("dynamic")
