@@ -51,7 +51,7 @@ def test_matched_flux_sentence_is_recomputed_from_the_level_rows(record):
     text = supermalloy_sentences(record)["matched"]
     static = record["fits"]["static"]
     assert f"R_source + r_series = {static['r_total_ohm']:.4g} ohm" in text
-    assert f"gain {static['gain']:.4g}" in text
+    assert f"gain {static['gain']:.4g} of the static fit, `{static['model']}`)" in text
     common = record["common_vs"]
     rows = sorted(
         (r for r in record["levels"] if r["level_vs"] == common), key=lambda r: r["frequency_hz"]

@@ -148,8 +148,9 @@ def supermalloy_sentences(rec: dict, law_name=_code) -> dict[str, str]:
     shape = s["shape"]
     matched = (
         f"Supermalloy's series permeability mu' (Table B.4, each reading inverted through the "
-        f"circuit of Fig 5.10 with the static fit's series resistance R_source + r_series = "
-        f"{_g(static['r_total_ohm'], 4)} ohm and gain {_g(static['gain'], 4)}) {s['flux_word']} with the flux amplitude, so the "
+        f"circuit of Fig 5.10 with the series resistance R_source + r_series = "
+        f"{_g(static['r_total_ohm'], 4)} ohm and gain {_g(static['gain'], 4)} of the static fit, "
+        f"{law_name(static['model'])}) {s['flux_word']} with the flux amplitude, so the "
         f"frequencies are compared at matched flux. At {_mv(c['level_vs'])} mV s, the smallest flux all "
         f"{c['n_frequencies']} frequencies reach, the rows give mu' "
         f"{_list([_k(r['mu']) for r in s['at_common']])} at {_list(freqs)} c/s: "
