@@ -318,7 +318,7 @@ def _plain_statements(results: dict) -> list[str]:
     Supermalloy's)."""
     out = findings._audit_findings(results.get("audit", {}))
     out.append(
-        physics_claims._supermalloy_finding((results.get("physics") or {}).get("supermalloy_fall"))
+        physics_claims._supermalloy_finding((results.get("physics") or {}).get("supermalloy"))
     )
     out.append(findings._limit_finding(results.get("limit_cycles", {})))
     return [s for s in out if s]

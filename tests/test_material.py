@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -38,6 +39,7 @@ from fitdf.inference.material import (
 from fitdf.models.constant_width import ConstantWidth
 from fitdf.models.frequency_hc import FrequencyHc
 from fitdf.models.rayleigh import Rayleigh, coercive_force, frohlich_kennelly, remanence
+from fitdf.report.physics_outline import _joint
 
 IN = 0.0254
 
@@ -361,6 +363,93 @@ def test_implied_stacking_factor_by_hand():
     assert bp["inside_range"] == (bp["fitted_high"] >= 6500 and bp["fitted_low"] <= 8000)
     hc = rows["coercive_force_Hc"]
     assert hc["fitted_low"] == hc["fitted_high"] == hc["fitted"]
+
+
+def _exactly(target, f, x0):
+    """The float ``x`` nearest ``x0`` at which ``f(x) == target`` exactly (a few ulps away)."""
+    x = x0
+    for _ in range(64):
+        got = f(x)
+        if got == target:
+            return x
+        x = float(np.nextafter(x, np.inf if got < target else -np.inf))
+    raise AssertionError(f"no float gives {target!r} exactly near {x0!r}")
+
+
+def test_iron_fraction_is_consistent_up_to_the_ends_of_its_range_inclusive():
+    """The stacking factors the fitted peak flux and Appendix A's B_p imply meet the range
+    0.50-0.90 when they touch it: the implied interval starting exactly at 0.90, or ending
+    exactly at 0.50, is consistent; one ulp of flux further out it is not. The report's
+    iron-fraction table says the same."""
+    g = core_geometry("permalloy")
+    assert (g.stacking_range, g.stacking_factor) == ((0.5, 0.9), 0.85)
+    mc = material_constants(
+        Rayleigh, {"mu0": 15.0, "gamma": 2e4, "c_sat": 0.3}, g, current_max=2e-3
+    )
+    ranges = appendix_a_ranges("permalloy")  # B_p 6500-8000 G
+    gross = g.a_e / g.stacking_factor
+
+    def implied(lam):
+        return implied_stacking_factor(replace(mc, peak_flux_linkage_vs=lam), ranges)
+
+    # low end of the implied interval (B_p at its top, 8000 G) exactly at the range's top
+    lam = _exactly(0.9, lambda x: implied(x)["low"], 0.9 * g.turns * gross * 0.8)
+    at_top = implied(lam)
+    assert at_top["low"] == 0.9 and at_top["consistent"]
+    past_top = implied(float(np.nextafter(lam, np.inf)))
+    assert past_top["low"] > 0.9 and not past_top["consistent"]
+    # high end (B_p at its bottom, 6500 G) exactly at the range's bottom
+    lam = _exactly(0.5, lambda x: implied(x)["high"], 0.5 * g.turns * gross * 0.65)
+    at_bottom = implied(lam)
+    assert at_bottom["high"] == 0.5 and at_bottom["consistent"]
+    below = implied(float(np.nextafter(lam, -np.inf)))
+    assert below["high"] < 0.5 and not below["consistent"]
+    # the report's table: "within" at the ends, "outside" past them
+    for sf, word in (
+        (at_top, "within"),
+        (past_top, "outside"),
+        (at_bottom, "within"),
+        (below, "outside"),
+    ):
+        row = _joint([{"block": "b", "law": "rayleigh", "implied_stacking_factor": sf}], {})
+        cell = row[1][2][0][2]
+        assert cell.endswith(f"({word} 0.5-0.9)"), cell
+
+
+def test_appendix_a_check_spans_the_stacking_range_to_its_ends_inclusive():
+    """An induction derived at the nominal 0.85 is known over 0.85/0.90 to 0.85/0.50 of its
+    value; a span whose end touches the Appendix A range exactly meets it, the next float
+    beyond does not (the range's ends are set to the span's ends as computed)."""
+    g = core_geometry("permalloy")
+    mc = material_constants(
+        Rayleigh, {"mu0": 15.0, "gamma": 2e4, "c_sat": 0.3}, g, current_max=2e-3
+    )
+    low_m, high_m = g.iron_fraction_spread
+    assert (low_m, high_m) == (0.85 / 0.9, 0.85 / 0.5)
+
+    def bp(value, low, high):
+        ranges = {"peak_flux_density_Bp": (low, high, "gauss")}
+        rows = appendix_a_check(replace(mc, peak_flux_density_gauss=value), ranges)
+        return rows[0]
+
+    def step(x, key, direction):  # the next float whose span end moves
+        end = bp(x, 0.0, None)[key]
+        while bp(x, 0.0, None)[key] == end:
+            x = float(np.nextafter(x, direction))
+        return x
+
+    # the span's top (at 0.50) is the range's bottom: it meets; a smaller value does not
+    x = 6500.0 / high_m
+    top = bp(x, 0.0, None)["fitted_high"]
+    assert top == x * high_m
+    assert bp(x, top, None)["inside_range"] and not bp(x, top, None)["inside"]
+    assert not bp(step(x, "fitted_high", -np.inf), top, None)["inside_range"]
+    # the span's bottom (at 0.90) is the range's top: it meets; a larger value does not
+    x = 8000.0 / low_m
+    bottom = bp(x, 0.0, None)["fitted_low"]
+    assert bottom == x * low_m
+    assert bp(x, 0.0, bottom)["inside_range"] and not bp(x, 0.0, bottom)["inside"]
+    assert not bp(step(x, "fitted_low", np.inf), 0.0, bottom)["inside_range"]
 
 
 def test_what_the_data_determine():

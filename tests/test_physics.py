@@ -1,6 +1,7 @@
 """The report's "What the data say" records (fitdf.report.physics): the tables' printed
-precision, the catalogue ranges, the reversed column both ways, the rate-dependent rows, and
-Supermalloy's small-signal permeability, checked against numbers computed here."""
+precision, the catalogue ranges, the reversed column both ways and the rate-dependent rows,
+checked against numbers computed here (Supermalloy at matched flux:
+test_supermalloy_report.py)."""
 
 from __future__ import annotations
 
@@ -13,16 +14,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import fitdf
 from fitdf.data.datasets import data_dir
 from fitdf.report.claims import claim
 from fitdf.report.physics import (
-    FALL_TOLERANCE,
     physics_record,
     precision_record,
     repeated_readings,
     reversal_record,
-    supermalloy_fall,
 )
 
 
@@ -169,49 +167,3 @@ def test_the_catalogue_ranges_and_the_precision_of_each_block():
 def test_reversal_record_skips_fits_of_blocks_not_in_the_report():
     fit = SimpleNamespace(metrics={"rms_complex": 0.1, "aicc": 1.0, "n_points": 3})
     assert reversal_record([], {}, {("B.5", "preisach"): fit})["blocks"] == {}
-
-
-@pytest.fixture(scope="module")
-def supermalloy():
-    """Table B.4 fitted with Rayleigh's law (cheap) through the exact chain, and refitted with
-    rate-dependent losses from it."""
-    static = fitdf.fit("B.4", "rayleigh", method="lsq", n_starts=2)
-    dynamic = fitdf.fit("B.4", "rayleigh", chain="dynamic", method="lsq", n_starts=2)
-    return static, dynamic
-
-
-def _mu_by_hand(fit, row):
-    """Series relative permeability of one measured row, through Fig 5.10 by hand."""
-    d, v = fit.problem.data, fit.values
-    g = fit.problem.geometry
-    gain = v.get("gain", v.get("gain[B.4]"))
-    R = d.source_impedance[row] + v["r_series"]
-    D = d.measured[row]
-    Z = R * D / (gain - D)
-    L = Z / (2j * math.pi * d.frequency[row])
-    mu = L * g.l_e / (4e-7 * math.pi * g.turns**2 * g.a_e)
-    return mu.real, mu.real / -mu.imag
-
-
-def test_supermalloy_fall_against_the_circuit_by_hand(supermalloy):
-    static, dynamic = supermalloy
-    f = supermalloy_fall(static, dynamic)
-    d = static.problem.data
-    freqs = np.unique(d.frequency)
-    rows = [
-        int(np.flatnonzero(d.frequency == fr)[np.argmin(d.amplitude[d.frequency == fr])])
-        for fr in (freqs[0], freqs[-1])
-    ]
-    (mu_lo, q_lo), (mu_hi, _) = (_mu_by_hand(static, r) for r in rows)
-    assert f["frequencies_hz"] == [3.0, 50.0]
-    assert f["measured"] == pytest.approx([mu_lo, mu_hi], rel=1e-9)
-    assert f["q_measured"][0] == pytest.approx(q_lo, rel=1e-9)
-    assert f["fall_measured"] == pytest.approx(mu_lo / mu_hi, rel=1e-9)
-    measured_dyn = f["dynamic_measured"][0] / f["dynamic_measured"][1]
-    assert f["reproduced"] == (abs(f["fall_dynamic"] / measured_dyn - 1) <= FALL_TOLERANCE)
-    # the evidence: the flux of a reading is its EMF over omega
-    ev = f["evidence"]
-    gain = static.values.get("gain", static.values.get("gain[B.4]"))
-    flux = abs(d.measured[rows[0]] * d.amplitude[rows[0]] / gain) / (2 * math.pi * 3.0)
-    assert ev["flux_vs"][0] == pytest.approx(flux, rel=1e-12)
-    assert set(ev["q_smallest_rows"]) == {"3", "6"}

@@ -449,9 +449,9 @@ def cross_impedance(
     source's output impedance and the leads; :mod:`fitdf.data.cores`), and the prediction at
     the other impedance depends on it. So the prediction is averaged over its prior
     (:func:`fitdf.inference.problem.series_resistance_prior`) at the three
-    :data:`PRIOR_NODES`: at each, the training fit with ``r_series`` held there (for 0 ohm
-    training the core at the prior's median rescaled exactly, ``fitdf.params
-    .current_scaled``; otherwise polished from it) predicts the target, and the rows give
+    :data:`PRIOR_NODES`: at each, the training fit with ``r_series`` held there (the core at
+    the prior's median rescaled by the current-scale symmetry, which reproduces the training
+    rows exactly, then polished to the chain's tolerance) predicts the target, and the rows give
     the RMS of the weighted mean prediction (``predict_*``) and its spread over the nodes
     (``predict_rms_complex_nodes``, ``_min``, ``_max``). ``r_series`` (ohm) holds it at one
     value instead (a core without an Appendix A geometry needs it).
@@ -514,13 +514,16 @@ def _series_nodes(train, r_series):
 
 def _rescaled(fitted, r_series, seed):
     """``fitted`` (a fit with ``r_series`` held fixed) refitted with it held at ``r_series``:
-    started from the core rescaled by the ratio of the total series resistances, exact where
-    the training rows are at 0 ohm (:func:`fitdf.params.current_scaled`)."""
+    started from the core rescaled by the ratio of the total series resistances
+    ``(R_source + r_series) / (R_source + r0)`` (:func:`fitdf.params.current_scaled`: the
+    law's parameters and the chain's loss terms), which reproduces every training reading
+    where the rows share one source impedance (the current-scale symmetry,
+    :mod:`fitdf.data.cores`), so the polish only absorbs the chain's numerical tolerance."""
     p = fitted.problem
     r0 = float(p.fixed["r_series"])
     source = float(np.mean(p.data.source_impedance))
     scale = (source + r_series) / (source + r0)
-    values = current_scaled(p.model.params, fitted.values, scale)
+    values = current_scaled((*p.model.params, *p.chain.params), fitted.values, scale)
     problem = FitProblem(
         p.data, p.model, p.chain, p.noise, {**p.fixed, "r_series": r_series}, p.geometry
     )

@@ -4,11 +4,13 @@
 (Graphs 4.1-4.7) from fitdf's models; :mod:`fitdf.plots.fits` draws fitted results
 (DF against amplitude, residuals, cross-impedance), :mod:`fitdf.plots.loci` their
 critical loci and :mod:`fitdf.plots.posterior` a posterior's corner plot;
-:mod:`fitdf.plots.summary` draws a report's opening figure from its results record.
+:mod:`fitdf.plots.summary` draws a report's opening figure from its results record and
+:mod:`fitdf.plots.permeability` a series permeability compared at matched flux from its record.
 """
 
 from fitdf.plots.fits import plot_cross_impedance, plot_fit, plot_residuals
 from fitdf.plots.loci import plot_critical_loci
+from fitdf.plots.permeability import plot_matched_flux
 from fitdf.plots.posterior import plot_corner
 from fitdf.plots.summary import plot_summary
 from fitdf.plots.thesis import (
@@ -39,4 +41,5 @@ __all__ = [
     "plot_corner",
     "plot_cross_impedance",
     "plot_summary",
+    "plot_matched_flux",
 ]

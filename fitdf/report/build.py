@@ -80,6 +80,7 @@ from fitdf.report import costs, render
 from fitdf.report import sections as rs
 from fitdf.report.physics import physics_record
 from fitdf.report.progress import RunProgress
+from fitdf.report.supermalloy import supermalloy_figure
 from fitdf.report.words import report_words
 
 __all__ = [
@@ -685,6 +686,9 @@ def collect(settings: ReportSettings, seed: int, figdir: Path, runner: Executor)
         },
         supermalloy=_supermalloy(lsq, ranked, second["dynamic"]),
     )
+    supermalloy = results["physics"]["supermalloy"]
+    if supermalloy:  # drawn from its record, like the summary figure
+        supermalloy["figure"] = supermalloy_figure(supermalloy, figdir)
     # The opening figure reads the assembled record (cheap: drawn here, not as a pool job).
     results["summary_figure"] = rs.summary_figure(results, figdir)
     timing["jobs_s"] = dict(runner.seconds)

@@ -14,9 +14,11 @@
   (:func:`fitdf.inference.material.implied_stacking_factor`), and the **series resistance**
   the joint fits find against its prior;
 * the **rate-dependent loss** (the ``dynamic`` chain): each block's best laws refitted with
-  Bertotti's dynamic fields, ranked beside the static fits by AICc and cross-validation, their
-  coefficients in material units, and whether that reproduces Supermalloy's falling
-  small-signal permeability (Table B.4, 3 and 50 c/s) within 20 %;
+  Bertotti's dynamic fields, ranked beside the static fits by AICc and cross-validation, and
+  their coefficients in material units;
+* **Supermalloy's series permeability** (Table B.4) and Q compared at matched flux amplitude,
+  rows against the static law and its rate-dependent refit
+  (:func:`fitdf.report.supermalloy.supermalloy_record`);
 * the **Jiles-Atherton** fits whose mean field sits at its limit.
 
 The best law of a block is :func:`fitdf.report.criteria.best_law` (the lowest AICc).
@@ -31,8 +33,8 @@ import pandas as pd
 from fitdf._json import clean
 from fitdf.data import datasets
 from fitdf.data.resolve import resolve_data
-from fitdf.inference.small_signal import series_permeability, small_signal_permeability
 from fitdf.report.criteria import best_law
+from fitdf.report.supermalloy import supermalloy_record
 
 __all__ = [
     "physics_record",
@@ -40,16 +42,12 @@ __all__ = [
     "repeated_readings",
     "reversal_record",
     "rate_dependent_record",
-    "supermalloy_fall",
     "CATALOGUE_CONSTANTS",
-    "FALL_TOLERANCE",
 ]
 
 #: The material constants of Permalloy's and Deltamax's best joint fits set beside their
 #: Appendix A catalogue ranges.
 CATALOGUE_CONSTANTS = ("peak_flux_density_Bp", "residual_induction_Br", "coercive_force_Hc")
-#: Relative tolerance on Supermalloy's small-signal permeability fall from 3 to 50 c/s.
-FALL_TOLERANCE = 0.2
 
 
 def _best(rec: dict) -> dict | None:
@@ -249,77 +247,6 @@ def rate_dependent_record(blocks: dict, dynamic: dict, static_cv: dict) -> dict:
     return out
 
 
-def _flux(df, v, gain, frequency):
-    """Peak flux linkage (V s) of a reading: the EMF ``DF V / gain`` over ``w``."""
-    return np.abs(np.asarray(df) * v / gain) / (2 * np.pi * np.asarray(frequency))
-
-
-def supermalloy_fall(static, dynamic) -> dict | None:
-    """Supermalloy's small-signal permeability at its lowest and highest frequency (Table B.4):
-    measured and as the static and the dynamic fit predict, each inverted through the circuit
-    of Fig 5.10 with the fit's own series resistance and gain, and whether the dynamic fit
-    reproduces the measured fall within :data:`FALL_TOLERANCE`.
-
-    Also what the data themselves say about the fall: the measured quality factor of the
-    two smallest rows at the lowest frequency and of the smallest row at the next one (the
-    fall rests on the smallest reading if only it is nearly lossless), and the flux
-    amplitude of the two rows compared (a smaller flux at the higher frequency: part of the
-    fall is amplitude, which a rate-independent law already has).
-    """
-    if static is None or static.problem.geometry is None:
-        return None
-    fits = {"static": static, "dynamic": dynamic}
-    tables = {k: small_signal_permeability(r) for k, r in fits.items() if r is not None}
-    t = tables["static"].sort_values("frequency_hz")
-    lo, hi = t.iloc[0], t.iloc[-1]
-    out = {
-        "frequencies_hz": [float(lo["frequency_hz"]), float(hi["frequency_hz"])],
-        "measured": [float(lo["mu_measured"]), float(hi["mu_measured"])],
-        "q_measured": [float(lo["q_measured"]), float(hi["q_measured"])],
-    }
-    for name, table in tables.items():
-        s = table.sort_values("frequency_hz")
-        out[f"{name}_model"] = fits[name].model
-        out[f"{name}_chain"] = fits[name].chain
-        out[f"{name}_measured"] = [
-            float(s.iloc[0]["mu_measured"]),
-            float(s.iloc[-1]["mu_measured"]),
-        ]
-        out[name] = [float(s.iloc[0]["mu_fitted"]), float(s.iloc[-1]["mu_fitted"])]
-    ratio = lambda pair: pair[0] / pair[1]  # noqa: E731
-    out["fall_measured"] = ratio(out["measured"])
-    out["fall_static"] = ratio(out["static"])
-    if "dynamic" in out:
-        out["fall_dynamic"] = ratio(out["dynamic"])
-        measured = ratio(out["dynamic_measured"])
-        out["reproduced"] = bool(abs(out["fall_dynamic"] / measured - 1) <= FALL_TOLERANCE)
-    out["evidence"] = _fall_evidence(static)
-    return out
-
-
-def _fall_evidence(fit) -> dict:
-    """The quality factors of the smallest readings and the flux amplitudes of the two rows."""
-    p = fit.problem
-    d = p.data
-    f = np.asarray(d.frequency, float)
-    v = np.asarray(d.amplitude, float)
-    measured = np.asarray(d.measured)
-    R = np.asarray(d.source_impedance, float) + fit.values.get("r_series", 0.0)
-    gain = np.array(
-        [fit.values.get(f"gain[{g}]", fit.values.get("gain", 1.0)) for g in np.asarray(d.group)]
-    )
-    freqs = np.unique(f)
-    q = {}
-    for fr in freqs[:2]:
-        idx = np.flatnonzero(f == fr)[np.argsort(v[f == fr])][:2]
-        mu = series_permeability(measured[idx], f[idx], R[idx], gain[idx], p.geometry)
-        q[f"{fr:g}"] = [float(m.real / -m.imag) for m in mu]
-    low = np.flatnonzero(f == freqs[0])[np.argmin(v[f == freqs[0]])]
-    high = np.flatnonzero(f == freqs[-1])[np.argmin(v[f == freqs[-1]])]
-    flux = _flux(measured[[low, high]], v[[low, high]], gain[[low, high]], f[[low, high]])
-    return {"q_smallest_rows": q, "flux_vs": [float(flux[0]), float(flux[1])]}
-
-
 def physics_record(
     results: dict,
     *,
@@ -331,7 +258,8 @@ def physics_record(
 ) -> dict:
     """The section's record (JSON-ready): the printed precision of each block, the catalogue
     ranges of the joint fits' constants, the reversed column, the iron fraction and series
-    resistance of the joint fits, the rate-dependent loss, Jiles-Atherton's mean field.
+    resistance of the joint fits, the rate-dependent loss, Supermalloy's permeability at
+    matched flux, Jiles-Atherton's mean field.
 
     ``supermalloy``: ``(static FitResult, dynamic FitResult or None)`` of Table B.4's best law.
     """
@@ -372,7 +300,7 @@ def physics_record(
             "reversal": reversal,
             "joint": joint,
             "rate_dependent": rate_dependent_record(blocks, dynamic, static_cv),
-            "supermalloy_fall": supermalloy_fall(*supermalloy),
+            "supermalloy": supermalloy_record(*supermalloy),
             "jiles_atherton": ja,
         }
     )

@@ -14,6 +14,7 @@ from fitdf.models import get_model
 from fitdf.report.claims import paragraph, rule, say, span
 from fitdf.report.conclusion import LSQ, QUANTITY_NAMES
 from fitdf.report.criteria import AICC_TIE, best_law
+from fitdf.report.supermalloy import supermalloy_sentences
 
 __all__ = ["physics_findings", "physics_claims", "precision_rows"]
 
@@ -284,16 +285,10 @@ def physics_findings(results: dict) -> list:
         paragraph(results, ("physics.precision", {})),
         paragraph(results, ("physics.rate_dependent", {})),
     ]
-    fall = _supermalloy_finding(results["physics"].get("supermalloy_fall"))
+    fall = _supermalloy_finding(results["physics"].get("supermalloy"))
     return [p for p in out if p] + ([fall] if fall else [])
 
 
-def _supermalloy_finding(fall) -> str | None:
-    if not fall or "reproduced" not in fall:
-        return None
-    return (
-        f"Supermalloy's small-signal permeability falls {fall['fall_measured']:.2f}x from "
-        f"{fall['frequencies_hz'][0]:g} to {fall['frequencies_hz'][1]:g} c/s; the refit with "
-        f"rate-dependent losses gives {fall['fall_dynamic']:.2f}x"
-        + (" (reproduced within 20 %)." if fall["reproduced"] else ", not within 20 %.")
-    )
+def _supermalloy_finding(rec) -> str | None:
+    """Supermalloy at matched flux, the Findings' bullet (:mod:`fitdf.report.supermalloy`)."""
+    return supermalloy_sentences(rec)["finding"] if rec else None

@@ -4,17 +4,17 @@ Renders :func:`fitdf.report.physics.physics_record` and the claims of
 :mod:`fitdf.report.physics_claims`: the best laws' residuals against the tables' printed
 precision, the joint fits' constants against their catalogue ranges, the reversed column
 both ways, the iron fraction and series resistance the joint fits imply, the rate-dependent
-loss beside the static laws and Supermalloy's small-signal permeability, Jiles-Atherton's
-mean field.
+loss beside the static laws, Jiles-Atherton's mean field, and Supermalloy's series
+permeability at matched flux.
 """
 
 from __future__ import annotations
 
 from fitdf.data.cores import STACKING_FACTOR
 from fitdf.report.claims import text
-from fitdf.report.document import TABLE, H, P, fmt, law, law_names
-from fitdf.report.physics import FALL_TOLERANCE
+from fitdf.report.document import IMG, TABLE, H, P, fmt, law, law_names
 from fitdf.report.physics_claims import physics_claims
+from fitdf.report.supermalloy import supermalloy_sentences
 
 __all__ = ["physics_blocks", "PHYSICS"]
 
@@ -240,41 +240,86 @@ def _rate_dependent(rd: dict, names: dict) -> list:
     return out
 
 
-def _fall(f: dict | None, names: dict) -> list:
-    if not f:
+def _supermalloy(rec: dict | None, names: dict) -> list:
+    """Supermalloy at matched flux: the figure, what it finds (:mod:`fitdf.report.supermalloy`),
+    and its numbers per frequency and per flux level."""
+    if not rec:
         return []
-    lo, hi = f["frequencies_hz"]
-    ev = f["evidence"]
-    q = "; ".join(
-        f"{k} c/s: {', '.join(fmt(v, 2) for v in vals)}"
-        for k, vals in ev["q_smallest_rows"].items()
-    )
-    verdict = (
-        f"reproduces it within {FALL_TOLERANCE:.0%}"
-        if f.get("reproduced")
-        else f"does not reproduce it within {FALL_TOLERANCE:.0%}"
-    )
-    text = (
-        f"Supermalloy's small-signal permeability (Table B.4's smallest input at {lo:g} and {hi:g} c/s, "
-        f"inverted through the circuit of Fig 5.10 with the fit's own series resistance and gain) falls "
-        f"{fmt(f['fall_measured'], 3)}x in the data ({fmt(f['measured'][0], 3)} -> {fmt(f['measured'][1], 3)}); "
-        f"the static fit {law(names, f['static_model'])} gives {fmt(f['fall_static'], 3)}x"
-    )
-    if "fall_dynamic" in f:
-        text += (
-            f", its refit with rate-dependent losses {fmt(f['fall_dynamic'], 3)}x: it {verdict}."
-        )
-    else:
-        text += "."
-    why = (
-        f" What the data say of the fall: the quality factor of the two smallest readings is {q} "
-        "(a fall resting on the smallest reading alone if only it is nearly lossless), and the "
-        f"flux amplitude at the {lo:g} c/s row is {fmt(ev['flux_vs'][0], 3)} V s against "
-        f"{fmt(ev['flux_vs'][1], 3)} V s at {hi:g} c/s: part of the fall is the smaller amplitude, "
-        "which a rate-independent law already follows, and a loss that grows with frequency has to "
-        "keep the low-frequency permeability while taking the high-frequency one down."
-    )
-    return [P(text + why)]
+    said = supermalloy_sentences(rec, lambda m: law(names, m))
+    dyn = "dynamic" in rec["fits"]
+
+    def k(x):  # a permeability in thousands
+        return "n/a" if x is None else f"{x / 1e3:.3g}k"
+
+    def pct(x):
+        return "n/a" if x is None else f"{100 * x:.3g} %"
+
+    small = [
+        [
+            r["frequency_hz"],
+            fmt(1e3 * r["flux_vs"], 3),
+            f"{k(r['mu'])} ({k(r['mu_lo'])}-{k(r['mu_hi'])})",
+            f"{fmt(r['q'], 3)} ({fmt(r['q_lo'], 3)}-{fmt(r['q_hi'], 3) if r['q_hi'] is not None else 'inf'})",
+            k(r["mu_static"]),
+            k(r.get("mu_dynamic")),
+            f"{fmt(r['rise'], 3)} ({fmt(r['rise_lo'], 3)}-{fmt(r['rise_hi'], 3)})",
+            fmt(r["rise_static"], 3),
+            fmt(r.get("rise_dynamic"), 3),
+        ]
+        for r in sorted(rec["small_flux"], key=lambda r: r["frequency_hz"])
+    ]
+    levels = [
+        [
+            fmt(1e3 * r["level_vs"], 3),
+            ", ".join(f"{f:g}" for f in r["frequencies_hz"]),
+            f"{k(r['mu_min'])}-{k(r['mu_max'])} ({fmt(r['ratio'], 3)}x)",
+            "n/a"
+            if r["slope_lo"] is None
+            else f"{r['slope']:.3f} ({r['slope_lo']:.3f} to {r['slope_hi']:.3f})",
+            pct(r["scatter"]),
+            pct(r["precision"]),
+            f"{r['slope_static']:.3f}" if r["slope_static"] is not None else "n/a",
+            f"{r['slope_dynamic']:.3f}" if dyn and r.get("slope_dynamic") is not None else "n/a",
+        ]
+        for r in rec["frequency"]
+    ]
+    common = fmt(1e3 * rec["common_vs"], 3)
+    out = [H(3, "Supermalloy's permeability at matched flux")]
+    if rec.get("figure"):
+        out.append(IMG(rec["figure"], "Supermalloy: series permeability and Q against flux"))
+    out += [
+        P(said["matched"]),
+        P(said["small_flux"]),
+        P(said["quality"]),
+        TABLE(
+            [
+                "c/s",
+                "smallest flux (mV s)",
+                "mu' rows (printed precision)",
+                "Q rows",
+                "mu' static law",
+                "mu' dynamic refit",
+                f"rise of mu' to {common} mV s: rows",
+                "static law",
+                "dynamic refit",
+            ],
+            small,
+        ),
+        TABLE(
+            [
+                "flux level (mV s)",
+                "c/s",
+                "mu' rows (max/min)",
+                "power-law slope s (95 %)",
+                "scatter",
+                "printed precision",
+                "s static law",
+                "s dynamic refit",
+            ],
+            levels,
+        ),
+    ]
+    return out
 
 
 def physics_blocks(res: dict, words=None) -> list:
@@ -303,6 +348,6 @@ def physics_blocks(res: dict, words=None) -> list:
         *_joint(ph.get("joint") or [], names),
         H(3, "Rate-dependent loss"),
         *_rate_dependent(ph.get("rate_dependent") or {}, names),
-        *_fall(ph.get("supermalloy_fall"), names),
         *([P(text(claims["jiles_atherton"]))] if claims["jiles_atherton"] else []),
+        *_supermalloy(ph.get("supermalloy"), names),
     ]
