@@ -5,12 +5,16 @@ as :mod:`fitdf.data.audit`, where they and the rules are documented.
 """
 
 from fitdf.data.audit import (
+    DEFAULT_POLICY,
     MAG_SPIKE,
     PHASE_SPIKE,
     POLICIES,
     audit,
     block_factors,
+    decisions,
     findings,
+    order_notes,
+    policy_name,
     reversals,
     select_rows,
 )
@@ -21,7 +25,11 @@ __all__ = [
     "select_rows",
     "findings",
     "reversals",
+    "decisions",
+    "order_notes",
+    "policy_name",
     "POLICIES",
+    "DEFAULT_POLICY",
     "MAG_SPIKE",
     "PHASE_SPIKE",
 ]

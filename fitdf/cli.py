@@ -56,6 +56,10 @@ RANK_CHOICES = (
     "n_params",
     "log_evidence",
 )
+#: Row policies (``fitdf.data.audit.POLICIES``; the first is the default) and the other
+#: names they answer to (``fitdf.data.audit.POLICY_ALIASES``).
+POLICY_CHOICES = ("trusted", "reordered", "as_printed", "all", "strict")
+POLICY_ALIASES = {"default": POLICY_CHOICES[0]}
 #: How a dimensionless unit is printed (``fitdf.params.DIMENSIONLESS``).
 DIMENSIONLESS_UNIT = "-"
 #: numpy's legacy ``RandomState`` (the MCMC's walkers) takes seeds below 2**32.
@@ -116,6 +120,18 @@ def seed_value(text: str) -> int:
     if not 0 <= value <= MAX_SEED:
         raise argparse.ArgumentTypeError(f"a seed is an integer from 0 to {MAX_SEED}, got {text}")
     return value
+
+
+def policy_value(text: str) -> str:
+    """A row policy's name (an alias resolved)."""
+    name = POLICY_ALIASES.get(text, text)
+    if name not in POLICY_CHOICES:
+        raise argparse.ArgumentTypeError(
+            f"unknown row policy {text[:40]!r}; choose one of {', '.join(POLICY_CHOICES)} "
+            f"({POLICY_CHOICES[0]} is the default; reordered also takes the columns the audit "
+            "reads as printed in reverse order reversed)"
+        )
+    return name
 
 
 def count_value(low: int, high: int, what: str):
@@ -264,6 +280,11 @@ def cmd_audit(args):
     print(
         f"{len(frame)} rows, {len(flagged)} flagged, {int(frame['exclude_default'].sum())} excluded by default\n"
     )
+    notes = audit.order_notes(audit.select_rows(frame), str(args.data))
+    for line in notes:  # what the default fit does with the column order, before the detail
+        print(f"Column order: {line}.")
+    if notes:
+        print()
     if factors is not None:
         print("DF factor per block (printed vs followed by the data):")
         print(factors.to_string(index=False), "\n")
@@ -563,6 +584,7 @@ def fit_sources(items, bundled) -> tuple[list[str], bool]:
 
 def cmd_fit(args):
     from fitdf.data import datasets
+    from fitdf.data.audit import order_notes
     from fitdf.data.cores import parse_geometry
     from fitdf.data.resolve import resolve_data
     from fitdf.models import model_names
@@ -574,7 +596,21 @@ def cmd_fit(args):
     # every dataset is read and checked before the first fit, and before the fitting stack
     # is imported (~5 s): a bad file fails at once, naming file, row and column
     rows = [resolve_data(src, args.policy, args.source_impedance) for src in sources]
+    for line in order_warnings(sources, rows, order_notes):
+        print(line, file=sys.stderr)
     return cmd_fit_checked(args, models, geometry, sources, batch, rows)
+
+
+def order_warnings(sources, rows, notes) -> list[str]:
+    """``fitdf fit``'s warnings on the column order of each dataset (``notes``:
+    :func:`fitdf.data.audit.order_notes`): a column taken in reverse order, or one the audit
+    flags that is fitted as printed and the option that would reverse it (the audit informs;
+    the user decides)."""
+    return [
+        f"fitdf fit: warning: {line}"
+        for src, fd in zip(sources, rows)
+        for line in notes(fd.rows, str(src))
+    ]
 
 
 def cmd_fit_checked(args, models, geometry, sources, batch, rows):
@@ -1037,11 +1073,15 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--rank-by", default="rms_complex", choices=RANK_CHOICES)
     sp.add_argument(
         "--policy",
-        default="default",
-        choices=["default", "as_printed", "all", "strict"],
-        help="which audited rows to use: 'default' drops untrustworthy rows and takes a column "
-        "the audit finds printed in reverse order reversed, 'as_printed' keeps the printed "
-        "order, 'all' every row, 'strict' only unflagged rows (datasets/README.md)",
+        default=POLICY_CHOICES[0],
+        type=policy_value,
+        metavar="{" + ",".join(POLICY_CHOICES) + "}",
+        help="which audited rows to use, in which order: 'trusted' (default; 'default' names it "
+        "too) drops untrustworthy rows and keeps every value as printed, but for a column a "
+        "documented decision of the bundled data takes reversed (Table B.5, 10 c/s phase); "
+        "'reordered' also takes a column the audit reads as printed in reverse order reversed; "
+        "'as_printed' the trusted rows with no column reversed; 'all' every row; 'strict' only "
+        "unflagged rows (datasets/README.md)",
     )
     sp.add_argument(
         "--no-cv", action="store_true", help="skip the leave-one-frequency-out cross-validation"

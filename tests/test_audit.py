@@ -184,8 +184,9 @@ def test_findings(b):
     assert any("B.1 f=3 c/s rows 2-9: h1_output_v printed 10^+1" in s for s in text)
     assert any("B.3 f=10 c/s row 1 (input 0.01 V) (thesis.txt line 1814)" in s for s in text)
     assert text[-1].startswith(
-        "Row policies on these 264 rows: 'all' keeps 262, 'default' keeps 255 (with the 13 rows "
-        "of the reversed column(s) in reversed order), 'as_printed' keeps 255, 'strict' keeps 210;"
+        "Row policies on these 264 rows: 'trusted' (the default) keeps 255 (with the 13 rows of "
+        "the column(s) a documented decision takes reversed in reversed order), 'reordered' keeps "
+        "255, 'as_printed' keeps 255, 'all' keeps 262, 'strict' keeps 210;"
     )
 
 

@@ -9,8 +9,14 @@ follows and power-of-ten shifted columns detected; (4) for a remaining inconsist
 the neighbours decide whether the input, the DF or only the output cell is wrong;
 (5) spikes of magnitude or phase against their own curve, tuned not to flag the genuine
 saturation knees; (6) columns printed in reverse order within their block, judged against
-the same column of the other frequencies (on the input axis divided by each block's
-saturation input) and, for the input column, against the inputs output and DF imply.
+the same column of the other frequencies at the same flux (its rates on a corpus are in
+docs/method/audit.rst).
+
+The audit informs; it changes nothing. A row policy (:func:`select_rows`) decides which rows
+a fit uses and in which order: by default (``trusted``) the values as printed, except a
+column a documented decision of the dataset takes reversed (the bundled Table B.5's 10 c/s
+phase, :func:`fitdf.data.datasets.decisions`); a column check (6) flags is taken reversed
+only under the ``reordered`` policy, when the user asks.
 
 The rules (rows under audit, checks, thresholds) are in :mod:`fitdf.data.audit_rules`.
 """
@@ -24,11 +30,18 @@ import pandas as pd
 
 from fitdf.data.audit_rules import (
     _AUDIT_COLUMNS,
+    _DECISION_REASON,
     _REVERSED_REASON,
+    APPLIED_COLUMN,
+    DECISION_COLUMN,
     MAG_SPIKE,
     PHASE_SPIKE,
-    REVERSAL_GAIN,
+    REVERSAL_MARGIN,
+    REVERSAL_RATIO,
     _analyse,
+    _columns,
+    _order_only,
+    _pending,
     _reversed_rows,
 )
 from fitdf.errors import OptionError
@@ -38,14 +51,22 @@ __all__ = [
     "block_factors",
     "reversals",
     "select_rows",
+    "policy_name",
+    "order_notes",
+    "decisions",
     "findings",
     "POLICIES",
+    "DEFAULT_POLICY",
     "MAG_SPIKE",
     "PHASE_SPIKE",
 ]
 
 #: Row policies of :func:`select_rows` (datasets/README.md); the first is the default.
-POLICIES = ("default", "as_printed", "all", "strict")
+POLICIES = ("trusted", "reordered", "as_printed", "all", "strict")
+#: The policy a fit uses unless told otherwise.
+DEFAULT_POLICY = POLICIES[0]
+#: Other names a policy answers to: ``default`` is the default policy, whatever it is.
+POLICY_ALIASES = {"default": DEFAULT_POLICY}
 
 
 # ------------------------------------------------------------------ public API
@@ -65,12 +86,12 @@ def audit(df: pd.DataFrame) -> pd.DataFrame:
         The input rows (same index) plus ``flag`` ("ok", "note" or "suspect"), ``reasons``
         ("; "-joined, empty when ok), ``amplitude_trusted``, ``magnitude_trusted``,
         ``phase_trusted``, ``h1_trusted`` (checks 1-5 on the printed cells),
-        ``exclude_default`` (the default fitting policy drops the row), ``df_recomputed``
-        (factor the block follows x output / input), ``df_tolerance`` (printed precision
-        of that comparison), ``reversed_columns`` (comma-joined columns of the row's block
-        that check 6 finds printed in reverse order, which the default policy takes
-        reversed; empty for most rows) and ``exclude_as_printed`` (the ``as_printed``
-        policy drops the row).
+        ``exclude_default`` (the default policy, ``trusted``, drops the row: computed on
+        the values it fits), ``df_recomputed`` (factor the block follows x output / input),
+        ``df_tolerance`` (printed precision of that comparison), ``reversed_columns``
+        (comma-joined columns of the row's block that check 6 flags as printed in reverse
+        order, which only the ``reordered`` policy takes reversed; empty for most rows) and
+        ``exclude_as_printed`` (the ``as_printed`` policy drops the row).
 
     Examples
     --------
@@ -107,38 +128,71 @@ def reversals(df: pd.DataFrame) -> pd.DataFrame:
     pandas.DataFrame
         One row per block and tested column (``phase_lead_deg``, ``df_reported``,
         ``h1_output_v``; an ``input_v`` row is added for a block whose flagged columns a
-        reversed input column explains). ``neighbours``: blocks compared with;
-        ``rho_printed`` / ``rho_reversed``: median Spearman rank correlation with their curves
-        on the input axis divided by each block's saturation input, ``gain`` = reversed -
-        printed; ``misfit_printed`` / ``misfit_reversed``: RMS distance to the neighbours'
-        median curve, in the column's unit; ``extreme_printed`` / ``extreme_reversed``: rows
-        from the saturation row (else the DF peak) to the phase minimum or DF maximum;
-        ``reversed``: flagged; ``verdict``: "reversed", "as printed", or why it "cannot
-        judge".
+        reversed input column explains). ``axis``: "saturation" (input over the block's
+        saturation input) or "flux" (input over frequency: the table marks no saturation
+        row); ``neighbours``: blocks compared with; ``points``: the block's points their
+        prediction covers; ``misfit_printed`` / ``misfit_reversed``: RMS distance, in the
+        column's unit, to the column the neighbours predict at the same flux
+        (interpolated in log frequency), ``ratio`` = printed / reversed; ``rho_printed`` /
+        ``rho_reversed``: median Spearman rank correlation with the neighbours' curves,
+        ``gain`` = reversed - printed; ``reversed``: flagged; ``verdict``: "reversed",
+        "as printed", or why it "cannot judge".
     """
-    return _analyse(df)[2]
+    return _order_only(df)
 
 
-def select_rows(df: pd.DataFrame, policy: str = "default") -> pd.DataFrame:
+def policy_name(policy: str) -> str:
+    """The policy ``policy`` names (an alias resolved); a one-line OptionError otherwise."""
+    name = POLICY_ALIASES.get(policy, policy)
+    if name not in POLICIES:
+        raise OptionError(
+            f"unknown row policy {policy!r}; choose one of {', '.join(POLICIES)} "
+            f"({DEFAULT_POLICY} is the default)"
+        )
+    return name
+
+
+def select_rows(df: pd.DataFrame, policy: str = DEFAULT_POLICY) -> pd.DataFrame:
     """Rows a fit uses under a policy (documented in datasets/README.md).
 
-    ``"default"``: the columns check (6) finds printed in reverse order taken reversed
-    within their block (``<column>_printed`` keeps the printed values, ``reversed_columns``
-    names them), then rows whose amplitude, magnitude or phase cannot be trusted and
-    repeated duplicates dropped; ``"as_printed"``: the same without the reversals;
-    ``"all"``: every row with a DF and a phase, as printed; ``"strict"``: only rows the
-    audit left unflagged, as printed. ``df`` may be audited already (its flags are then
-    used).
+    ``"trusted"`` (the default; ``"default"`` names it too): rows whose amplitude,
+    magnitude and phase the audit trusts, repeats of duplicates dropped, every value as
+    printed except the columns a documented decision of the dataset takes in reverse order
+    within their block (:data:`~fitdf.data.datasets.DECISION_COLUMN`: the bundled Table
+    B.5's 10 c/s phase), which are taken reversed; ``"reordered"``: the same, with the
+    columns check (6) flags also taken reversed (the repair, applied when asked);
+    ``"as_printed"``: the same rows with every value as printed; ``"all"``: every row with a
+    DF and a phase, as printed; ``"strict"``: only rows the audit left unflagged, as printed.
+    A reversed column keeps its printed values in ``<column>_printed``, and
+    ``reversed_applied`` names it. ``df`` may be audited already (its flags are then used),
+    or selected already by the same policy (it is then returned as it is).
     """
-    if policy not in POLICIES:
-        raise OptionError(f"unknown row policy {policy!r}; choose one of {', '.join(POLICIES)}")
+    policy = policy_name(policy)
     frame = df if all(c in df for c in _AUDIT_COLUMNS) else audit(df)
-    fitted = frame
-    if policy == "default" and frame["reversed_columns"].fillna("").astype(bool).any():
-        fitted = _reversed_rows(frame)
+    decided = frame.get(DECISION_COLUMN, pd.Series("", index=frame.index)).fillna("").astype(str)
+    spec = {
+        "trusted": decided.to_numpy(object),
+        "reordered": np.array(
+            [
+                ",".join(dict.fromkeys([*_columns(d), *_columns(f)]))
+                for d, f in zip(decided, frame["reversed_columns"].fillna(""))
+            ],
+            dtype=object,
+        ),
+    }.get(policy, np.full(len(frame), "", dtype=object))
+    applied = frame.get(APPLIED_COLUMN, pd.Series("", index=frame.index)).fillna("").astype(str)
+    extra = [a for a, s in zip(applied, spec) if set(_columns(a)) - set(_columns(s))]
+    if extra:
+        raise OptionError(
+            f"these rows hold {extra[0]} reversed already (selected by another row policy); "
+            f"select the '{policy}' rows from the data as loaded"
+        )
+    pending = _pending(frame, spec)
+    fitted = _reversed_rows(frame, pending) if pending.astype(bool).any() else frame
     keep = {
         "all": np.ones(len(frame), bool),
-        "default": ~frame["exclude_default"].to_numpy(bool),
+        "trusted": ~fitted["exclude_default"].to_numpy(bool),
+        "reordered": ~fitted["exclude_default"].to_numpy(bool),
         "as_printed": ~frame["exclude_as_printed"].to_numpy(bool),
         "strict": (frame["flag"] == "ok").to_numpy(),
     }[policy]
@@ -149,9 +203,99 @@ def select_rows(df: pd.DataFrame, policy: str = "default") -> pd.DataFrame:
     ]
 
 
+def order_notes(rows: pd.DataFrame, label: str = "data") -> list[str]:
+    """One line per block of ``rows`` (selected by a policy) about its column order.
+
+    A column taken in reverse order (by a documented decision or the ``reordered`` policy)
+    is said, and so is a column check (6) flags that is fitted as printed, with the option
+    that would fit it reversed: the lines ``fitdf fit`` prints as warnings.
+    """
+    out = []
+    keys = [k for k in ("table", "source_impedance_ohm", "frequency_hz") if k in rows]
+    get = lambda c: rows.get(c, pd.Series("", index=rows.index)).fillna("").astype(str)  # noqa: E731
+    frame = rows.assign(_flagged=get("reversed_columns"), _applied=get(APPLIED_COLUMN))
+    frame = frame.assign(_decided=get(DECISION_COLUMN))
+    for key, g in frame.groupby(keys, sort=False):
+        key = dict(zip(keys, key if isinstance(key, tuple) else (key,)))
+        table = str(key.get("table", ""))
+        where = f"{label}{f' {table}' if table not in label else ''} f={key['frequency_hz']:g} c/s"
+        applied, decided = _columns(g["_applied"].iloc[0]), _columns(g["_decided"].iloc[0])
+        for c in applied:
+            why = (
+                "by a documented decision of the dataset; --policy as_printed fits it as printed"
+                if c in decided
+                else "by the 'reordered' policy, as asked"
+            )
+            out.append(f"{where}: {c} is fitted in reverse order within its block ({why})")
+        for c in _columns(g["_flagged"].iloc[0]):
+            if c not in applied:
+                out.append(
+                    f"{where}: the audit reads {c} as printed in reverse order within its block "
+                    "(the audit's findings give the evidence); it is fitted as printed, "
+                    "--policy reordered fits it reversed"
+                )
+    return out
+
+
+def decisions(df: pd.DataFrame) -> pd.DataFrame:
+    """The documented decisions on ``df``'s blocks, with what the column-order rule says.
+
+    One row per (block, decided column): the block's keys, ``column``, ``rows``,
+    ``printed`` and ``fitted`` (the column's values in printed order, as printed and as the
+    default policy fits them), and, from :func:`reversals`, ``verdict`` (the rule's on the
+    printed column), ``misfit_printed``, ``misfit_reversed``, ``rho_printed``,
+    ``rho_reversed`` and ``neighbours``.
+    """
+    cols = [
+        "table",
+        "source_impedance_ohm",
+        "frequency_hz",
+        "column",
+        "rows",
+        "printed",
+        "fitted",
+        "verdict",
+        "neighbours",
+        "misfit_printed",
+        "misfit_reversed",
+        "rho_printed",
+        "rho_reversed",
+    ]
+    if DECISION_COLUMN not in df or not df[DECISION_COLUMN].fillna("").astype(bool).any():
+        return pd.DataFrame(columns=cols)
+    rows, _, order = _analyse(df)
+    return _decision_records(rows, order)[cols] if len(rows) else pd.DataFrame(columns=cols)
+
+
+def _decision_records(rows: pd.DataFrame, order: pd.DataFrame) -> pd.DataFrame:
+    out = []
+    keys = ["table", "source_impedance_ohm", "frequency_hz"]
+    decided = rows[rows[DECISION_COLUMN].fillna("").astype(bool)]
+    for key, g in decided.groupby(keys, sort=False):
+        if "row_in_block" in g:
+            g = g.sort_values("row_in_block", kind="stable")
+        for c in _columns(g[DECISION_COLUMN].iloc[0]):
+            v = g[c].to_numpy(float).tolist()
+            rec = {**dict(zip(keys, key)), "column": c, "rows": len(g), "printed": v}
+            rec["fitted"] = v[::-1]
+            judged = order[
+                (order["table"] == key[0])
+                & (order["source_impedance_ohm"] == key[1])
+                & (order["frequency_hz"] == key[2])
+                & (order["column"] == c)
+            ]
+            j = judged.iloc[0] if len(judged) else {}
+            for k in ("verdict", "neighbours", "misfit_printed", "misfit_reversed"):
+                rec[k] = j.get(k, np.nan) if len(judged) else np.nan
+            for k in ("rho_printed", "rho_reversed"):
+                rec[k] = j.get(k, np.nan) if len(judged) else np.nan
+            out.append(rec)
+    return pd.DataFrame(out)
+
+
 def findings(df: pd.DataFrame) -> list[str]:
-    """Human sentences for the report: factors, shifts, column order, every suspect row,
-    policy counts."""
+    """Human sentences for the report: factors, shifts, decisions, column order, every
+    suspect row, policy counts."""
     rows, blocks, order = _analyse(df)
     out = _factor_sentences(blocks)
     for _, b in blocks[blocks["shift_power"] != 0].iterrows():
@@ -160,10 +304,13 @@ def findings(df: pd.DataFrame) -> list[str]:
             f"10^{b['shift_power']:+d} times its value (a power-of-ten shift); the rows are "
             "consistent once it is undone."
         )
+    out += _decision_sentences(rows, order)
     out += _order_sentences(order, rows)
     for label, r in rows[rows["flag"] == "suspect"].iterrows():
-        reasons = [  # a reversed column is said once for its block, above
-            x for x in r["reasons"].split("; ") if _REVERSED_REASON not in x
+        reasons = [  # a reversed or decided column is said once for its block, above
+            x
+            for x in r["reasons"].split("; ")
+            if _REVERSED_REASON not in x and _DECISION_REASON not in x
         ]
         if not reasons:
             continue
@@ -183,13 +330,22 @@ def findings(df: pd.DataFrame) -> list[str]:
             "signal is meaningless (phase untrusted)."
         )
     keep = {p: len(select_rows(rows, p)) for p in POLICIES}
-    n_rev = int(rows["reversed_columns"].astype(bool).sum())
-    how = f" (with the {n_rev} rows of the reversed column(s) in reversed order)" if n_rev else ""
+    decided = rows.get(DECISION_COLUMN, pd.Series("", index=rows.index)).fillna("").astype(bool)
+    flagged = rows["reversed_columns"].fillna("").astype(bool)
+    n_dec, n_rev = int(decided.sum()), int((flagged & ~decided).sum())
+    how = (
+        f" (with the {n_dec} rows of the column(s) a documented decision takes reversed in "
+        "reversed order)"
+        if n_dec
+        else ""
+    )
+    how_re = f" (with {n_rev} more rows of flagged column(s) reversed)" if n_rev else ""
     out.append(
-        f"Row policies on these {len(rows)} rows: 'all' keeps {keep['all']}, 'default' keeps "
-        f"{keep['default']}{how}, 'as_printed' keeps {keep['as_printed']}, 'strict' keeps "
-        f"{keep['strict']}; {int((rows['flag'] == 'suspect').sum())} rows "
-        f"are suspect, {int((rows['flag'] == 'note').sum())} carry a note."
+        f"Row policies on these {len(rows)} rows: 'trusted' (the default) keeps "
+        f"{keep['trusted']}{how}, 'reordered' keeps {keep['reordered']}{how_re}, 'as_printed' "
+        f"keeps {keep['as_printed']}, 'all' keeps {keep['all']}, 'strict' keeps "
+        f"{keep['strict']}; {int((rows['flag'] == 'suspect').sum())} rows are suspect, "
+        f"{int((rows['flag'] == 'note').sum())} carry a note."
     )
     return out
 
@@ -203,12 +359,32 @@ def _lines(g: pd.DataFrame) -> str:
     return f", {found[0][1]} lines {min(lines)}-{max(lines)}"
 
 
-def _where(extreme: float, anchor: str) -> str:
-    """``"2 rows after the saturation row"`` for an offset of +2 rows from ``anchor``."""
-    if extreme == 0:
-        return f"at the {anchor}"
-    side = "after" if extreme > 0 else "before"
-    return f"{abs(extreme):g} row{'s' * (abs(extreme) != 1)} {side} the {anchor}"
+def _values(v) -> str:
+    return ", ".join(f"{x:g}" for x in v)
+
+
+def _decision_sentences(rows: pd.DataFrame, order: pd.DataFrame) -> list[str]:
+    """Each documented decision, said as one: what is taken reversed, and what stays."""
+    if DECISION_COLUMN not in rows:
+        return []
+    out = []
+    for _, d in _decision_records(rows, order).iterrows():
+        out.append(
+            f"{d['table']} f={d['frequency_hz']:g} c/s {d['column']} ({d['rows']} rows): taken in "
+            "reverse order within its block by a documented decision of the dataset "
+            f"({DECISION_COLUMN}; for the bundled tables fitdf.datasets.DECISIONS, with the "
+            "evidence in datasets/README.md), not by a rule at run time. The cells stay as "
+            "printed; the default policy 'trusted' fits the column reversed and says so in "
+            f"each row's reasons, 'as_printed' fits it as printed. Printed {_values(d['printed'])}; "
+            f"fitted {_values(d['fitted'])}."
+        )
+    return out
+
+
+_AXIS = {
+    "saturation": "at the same input over saturation input",
+    "flux": "at the same input over frequency (flux; the table marks no saturation row)",
+}
 
 
 def _order_sentences(order: pd.DataFrame, rows: pd.DataFrame) -> list[str]:
@@ -219,22 +395,25 @@ def _order_sentences(order: pd.DataFrame, rows: pd.DataFrame) -> list[str]:
     judged = tested[~tested["verdict"].str.startswith("cannot")]
     flagged = order[order["reversed"].astype(bool) & ~order["verdict"].str.startswith("reads")]
     others = judged[~judged["reversed"].astype(bool)]
-    best = others["gain"].max() if len(others) else np.nan
     which = ", ".join(
         f"{b['table']} f={b['frequency_hz']:g} c/s {b['column']}" for _, b in flagged.iterrows()
     )
-    out = [
+    summary = (
         f"Column order: {len(judged)} of the {len(tested)} (block, column) pairs could be judged "
         f"({len(tested) - len(judged)} are too flat, or have fewer than 2 comparable neighbouring "
-        f"frequencies); {len(flagged) or 'none'} read{'s' * (len(flagged) == 1)} better in reverse "
+        f"frequencies); {len(flagged) or 'none'} read{'s' * (len(flagged) == 1)} in reverse "
         f"order{f' ({which})' if which else ''}"
-        + (
-            f"; for every other, reversing changes its rank correlation by at most {best:+.2f} "
-            f"(threshold {REVERSAL_GAIN:+.1f})."
-            if np.isfinite(best)
-            else "."
+    )
+    if len(others):
+        top = others.loc[others["ratio"].idxmax()]
+        summary += (
+            f"; of the others, the printed column lies at most {top['ratio']:.2f} times as far "
+            "from the column its neighbours predict as reversed "
+            f"({top['table']} f={top['frequency_hz']:g} c/s {top['column']}; flagged from "
+            f"{REVERSAL_RATIO:g} times)"
         )
-    ]
+    out = [summary + "."]
+    decided = rows.get(DECISION_COLUMN, pd.Series("", index=rows.index)).fillna("").astype(str)
     for _, b in flagged.iterrows():
         block = order[
             (order["table"] == b["table"])
@@ -243,8 +422,8 @@ def _order_sentences(order: pd.DataFrame, rows: pd.DataFrame) -> list[str]:
         ]
         g = rows[
             (rows.get("table", "data") == b["table"])
+            & (rows["source_impedance_ohm"] == b["source_impedance_ohm"])
             & (rows["frequency_hz"] == b["frequency_hz"])
-            & (rows["reversed_columns"] != "")
         ]
         if "row_in_block" in g:
             g = g.sort_values("row_in_block", kind="stable")
@@ -252,40 +431,40 @@ def _order_sentences(order: pd.DataFrame, rows: pd.DataFrame) -> list[str]:
         head = f"{b['table']} f={b['frequency_hz']:g} c/s {b['column']} ({len(g)} rows{_lines(g)})"
         if b["column"] == "input_v":
             cols = block[block["verdict"].str.startswith("reads")]
-            gain = cols["gain"].min()
             evidence = (
                 "every other column reads reversed against it ("
                 + ", ".join(
-                    f"{c['column']}: median rank correlation with {c['neighbours']:g} neighbouring "
-                    f"frequency blocks {c['rho_printed']:+.2f} as printed, {c['rho_reversed']:+.2f} "
-                    "reversed"
+                    f"{c['column']}: {c['misfit_printed']:.3g} from the column its "
+                    f"{c['neighbours']:g} neighbouring frequency blocks predict as printed, "
+                    f"{c['misfit_reversed']:.3g} reversed"
                     for _, c in cols.iterrows()
                 )
                 + "), and none reads better as printed"
             )
         else:
-            gain = b["gain"]
             unit = {"phase_lead_deg": " deg", "h1_output_v": " V"}.get(b["column"], "")
-            anchor = "saturation row" if g.get("saturation", pd.Series(False)).any() else "DF peak"
-            what = "minimum" if b["column"] == "phase_lead_deg" else "maximum"
+            margin = REVERSAL_MARGIN[b["column"]]
             evidence = (
-                f"against {b['neighbours']:g} neighbouring frequency blocks, on the input "
-                f"axis divided by each block's saturation input, its median rank correlation is "
-                f"{b['rho_printed']:+.2f} as printed and {b['rho_reversed']:+.2f} reversed, its "
-                f"RMS distance to their median curve {b['misfit_printed']:.3g}{unit} printed and "
-                f"{b['misfit_reversed']:.3g}{unit} reversed"
+                f"{_AXIS[b['axis']]}, its RMS distance to the column its {b['neighbours']:g} "
+                f"neighbouring frequency blocks predict is {b['misfit_printed']:.3g}{unit} as "
+                f"printed and {b['misfit_reversed']:.3g}{unit} reversed ({b['ratio']:.1f} times "
+                f"nearer reversed; flagged from {REVERSAL_RATIO:g} times"
+                + (f" and {margin:g}{unit} nearer" if margin else "")
+                + f"), and its median rank correlation with them is {b['rho_printed']:+.2f} "
+                f"printed, {b['rho_reversed']:+.2f} reversed"
             )
-            if np.isfinite(b["extreme_printed"]):
-                evidence += (
-                    f", and its {what} sits {_where(b['extreme_printed'], anchor)} as printed, "
-                    f"{_where(b['extreme_reversed'], anchor)} reversed"
-                )
-        rest = f" while no other column gains more than {best:+.2f}" if np.isfinite(best) else ""
+        is_decided = b["column"] in _columns(decided[g.index[0]] if len(g) else "")
+        tail = (
+            "A documented decision of the dataset takes it reversed (said above), so the "
+            "default policy 'trusted' fits it reversed by that decision; 'as_printed' fits it "
+            "as printed."
+            if is_decided
+            else "It is fitted as printed by default ('trusted'); the 'reordered' policy "
+            "(fitdf fit --policy reordered) fits it reversed."
+        )
         out.append(
-            f"{head} reads in reverse order: {evidence}; printed "
-            f"{', '.join(f'{x:g}' for x in v)}, reversed {', '.join(f'{x:g}' for x in v[::-1])}. "
-            f"The 'default' policy fits it reversed, since its gain ({gain:+.2f}) is past the "
-            f"threshold{rest}; 'as_printed' fits it as printed."
+            f"{head} reads in reverse order: {evidence}; printed {_values(v)}, reversed "
+            f"{_values(v[::-1])}. {tail}"
         )
     return out
 

@@ -2,10 +2,11 @@
 
 :func:`_analyse` runs the checks (1)-(6) of :mod:`fitdf.data.audit` on a frame and
 returns the flagged rows, the DF factor of each block and the column-order verdict of
-each (block, column); :func:`_reversed_rows` audits the values the ``default`` policy fits
-(the columns check (6) finds printed in reverse order taken reversed). The public
-functions there (``audit``, ``block_factors``, ``reversals``, ``select_rows``,
-``findings``) read their output.
+each (block, column); :func:`_reversed_rows` audits the values a row policy fits (columns
+taken in reverse order within their block: those a documented decision names under the
+default policy, also those check (6) flags under ``reordered``). The public functions there
+(``audit``, ``block_factors``, ``reversals``, ``select_rows``, ``findings``) read their
+output.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from itertools import groupby
 import numpy as np
 import pandas as pd
 
+from fitdf.data.datasets import DECIDABLE_COLUMNS, DECISION_COLUMN
 from fitdf.errors import DataError
 
 __all__ = [
@@ -24,12 +26,13 @@ __all__ = [
     "MAG_NOISE",
     "STEP_OUTLIER",
     "REVERSIBLE",
-    "REVERSAL_GAIN",
-    "REVERSAL_FIT",
+    "REVERSAL_RATIO",
+    "REVERSAL_RATIO_HIGHEST",
+    "REVERSAL_MARGIN",
     "FLAT_RANGE",
     "MIN_OVERLAP",
     "MIN_NEIGHBOURS",
-    "EXTREME_ROWS",
+    "INPUT_REVERSED_COLUMNS",
 ]
 
 # Calibration on the 264 bundled rows (best-of-three leave-one-out residuals of the 220
@@ -53,23 +56,34 @@ STEP_OUTLIER = 4.0
 _FACTOR_WINDOW = 0.02
 
 # Column order (check 6). A column is compared with the same column of its neighbouring
-# blocks (the other frequencies of its table and source impedance) on the normalised input
+# blocks (the other frequencies of its table and source impedance) at the same flux: on the
 # axis u = log(input / reference input), the reference being the block's saturation (``**``)
-# row, else the middle of its DF peak; the statistic is Spearman's rank correlation with each
-# neighbour's curve (linearly interpolated in u, over the block's points it covers), its
-# median over the neighbours is the block's score, printed and with the column reversed.
-# Calibration on the 21 bundled blocks: 57 of the 63 (block, column) pairs can be judged; the
-# printed columns score 0.36-1.00 but one, B.5 10 c/s phase (-0.08); reversing a column
-# raises the score by at most +0.02 except there (+0.99, to +0.91). The gain threshold sits
-# midway; the fit threshold below every genuine printed score. Reversing one of the other 56
-# judged columns in a copy is caught 41 times; the misses read nearly alike either way
-# (|gain| < 0.5: a phase minimum or DF peak in mid-block).
+# input; a block without the mark takes its frequency times the median saturation input over
+# frequency of the marked blocks, and a table without marks its frequency (Faraday's law: the
+# peak flux of a sinusoidal drive is input / (2 pi f N), so equal input / frequency is equal
+# flux; on the thesis tables the marked saturation inputs over frequency agree within a factor
+# 1.6 per table). Two statistics, printed and with the column reversed: the RMS distance to
+# the column predicted from the neighbours (at each point, interpolated in log frequency
+# between the nearest lower and higher frequencies covering it, else the nearest one), and
+# the median over the neighbours of Spearman's rank correlation with each neighbour's curve.
+# Validated on the corpus of benchmarks/audit_order_corpus.py (rates in docs/method/audit.rst).
 #: Columns tested for a reversed order (the input column is the axis: see _check_reversals).
 REVERSIBLE = ("phase_lead_deg", "df_reported", "h1_output_v")
-#: The median rank correlation must rise by this much when the column is reversed ...
-REVERSAL_GAIN = 0.5
-#: ... and reach this, for the column to be flagged as printed in reverse order.
-REVERSAL_FIT = 0.3
+#: The printed column must lie this many times farther from its predicted curve than the
+#: reversed one ...
+REVERSAL_RATIO = 2.0
+#: ... this many at the highest frequency of its table, whose prediction extrapolates from
+#: lower frequencies while rate-dependent (eddy-current) loss grows with frequency and flux:
+#: a genuine rise there must not read as a reversal ...
+REVERSAL_RATIO_HIGHEST = 4.0
+#: ... by at least this much in the column's unit (half the spike thresholds: ~9 times the
+#: tables' within-block scatter), and reversing must raise the rank correlation, for the
+#: column to be flagged as printed in reverse order.
+REVERSAL_MARGIN = {
+    "phase_lead_deg": PHASE_SPIKE / 2,
+    "df_reported": MAG_SPIKE / 2,
+    "h1_output_v": 0.0,
+}
 #: A column spanning less has no shape to compare (1.25x the spike thresholds: no feature
 #: larger than one slipped digit); h1_output_v only needs to vary.
 FLAT_RANGE = {"phase_lead_deg": 1.25 * PHASE_SPIKE, "df_reported": 1.25 * MAG_SPIKE}
@@ -77,10 +91,9 @@ FLAT_RANGE = {"phase_lead_deg": 1.25 * PHASE_SPIKE, "df_reported": 1.25 * MAG_SP
 MIN_OVERLAP = 4
 #: Comparable neighbours needed to judge: with one, either block could be the reversed one.
 MIN_NEIGHBOURS = 2
-#: Rows the phase minimum (DF maximum) may sit from the saturation row in a genuine column
-#: (every judged thesis column but one: B.5 10 c/s phase, 2); a reversal that would move it
-#: farther than this and than printed is vetoed.
-EXTREME_ROWS = 1
+#: Columns a block must flag, with none reading better as printed, for its input column to
+#: be the one printed reversed (every other column then reads reversed against it).
+INPUT_REVERSED_COLUMNS = 2
 
 _AUDIT_COLUMNS = (
     "flag",
@@ -110,16 +123,28 @@ _FACTOR_COLUMNS = [
 ]
 #: The reason a row of a reversed column carries (after the column's name).
 _REVERSED_REASON = "printed in reverse order within its block (column-order check"
+#: The note a row of a column a documented decision takes reversed carries (after its name).
+_DECISION_REASON = "taken in reverse order within its block by a documented decision of the dataset"
+#: The column naming, per fitted row, the columns a row policy took in reverse order.
+APPLIED_COLUMN = "reversed_applied"
 _REVERSAL_SCORES = (
+    "points",
+    "misfit_printed",
+    "misfit_reversed",
+    "ratio",
     "rho_printed",
     "rho_reversed",
     "gain",
-    "misfit_printed",
-    "misfit_reversed",
-    "extreme_printed",
-    "extreme_reversed",
 )
-_REVERSAL_COLUMNS = [*_BLOCK, "column", "neighbours", *_REVERSAL_SCORES, "reversed", "verdict"]
+_REVERSAL_COLUMNS = [
+    *_BLOCK,
+    "column",
+    "axis",
+    "neighbours",
+    *_REVERSAL_SCORES,
+    "reversed",
+    "verdict",
+]
 
 
 # ------------------------------------------------------------------ the analysis
@@ -170,6 +195,7 @@ class _Rows:
         self.suspect, self.dup_extra = np.zeros(n, bool), np.zeros(n, bool)
         self.d_exp, self.tol = np.full(n, np.nan), np.full(n, np.nan)
         self.reversed = np.full(n, "", dtype=object)  # columns check (6) finds reversed
+        self.decided = _decided(f, self)  # columns a documented decision takes reversed
 
     def blocks(self):  # row positions of each block, in printed order
         for b in np.unique(self.block):
@@ -181,6 +207,42 @@ class _Rows:
         for k in untrust:
             self.trust[k][i] = False
         self.suspect[i] |= suspect
+
+
+def _columns(spec) -> list[str]:
+    """``"a,b"`` -> ``["a", "b"]``; empty or missing -> ``[]``."""
+    return [c for c in str(spec).split(",") if c] if isinstance(spec, str) else []
+
+
+def _decided(frame: pd.DataFrame, r: _Rows) -> np.ndarray:
+    """The ``reversed_by_decision`` column, checked: reversible column names, one value a block."""
+    if DECISION_COLUMN not in frame:
+        return np.full(len(frame), "", dtype=object)
+    spec = frame[DECISION_COLUMN].fillna("").astype(str).str.replace(" ", "").to_numpy(object)
+    for idx in r.blocks():
+        values = set(spec[idx])
+        where = ", ".join(f"{k}={r.keys[k].iloc[idx[0]]}" for k in _BLOCK)
+        if len(values) > 1:
+            raise DataError(
+                f"{DECISION_COLUMN}: its value differs within the block {where} "
+                f"({', '.join(sorted(map(repr, values)))}); a decision names a block's columns"
+            )
+        bad = [c for c in _columns(spec[idx[0]]) if c not in DECIDABLE_COLUMNS]
+        if bad:
+            raise DataError(
+                f"{DECISION_COLUMN}: {bad[0]!r} in the block {where} is not a column that can "
+                f"be reversed ({', '.join(DECIDABLE_COLUMNS)})"
+            )
+    return spec
+
+
+def _pending(frame: pd.DataFrame, spec) -> np.ndarray:
+    """``spec`` (comma-joined columns per row) less the columns a row already holds reversed."""
+    done = frame.get(APPLIED_COLUMN, pd.Series("", index=frame.index)).fillna("").astype(str)
+    return np.array(
+        [",".join(c for c in _columns(s) if c not in _columns(d)) for s, d in zip(spec, done)],
+        dtype=object,
+    )
 
 
 def _analyse(df: pd.DataFrame, judge_order: bool = True):
@@ -196,6 +258,8 @@ def _analyse(df: pd.DataFrame, judge_order: bool = True):
         order = _check_reversals(r) if judge_order else pd.DataFrame(columns=_REVERSAL_COLUMNS)
         blocks = _factor_analysis(r)
         _check_smoothness(r)
+    pending = _pending(r.frame, r.decided)
+    _mark_decisions(r, pending)
     out = r.frame.copy()
     out["flag"] = np.where(
         r.suspect, "suspect", np.where([bool(x) for x in r.reasons], "note", "ok")
@@ -208,53 +272,80 @@ def _analyse(df: pd.DataFrame, judge_order: bool = True):
     out["df_recomputed"], out["df_tolerance"] = r.d_exp, r.tol
     out["reversed_columns"] = r.reversed
     out["exclude_as_printed"] = excluded
-    if r.reversed.astype(bool).any():  # the default policy fits the reversed values
-        out["exclude_default"] = _reversed_rows(out)["exclude_default"].to_numpy(bool)
+    if pending.astype(bool).any():  # the default policy fits the values the decision gives
+        out["exclude_default"] = _reversed_rows(out, pending)["exclude_default"].to_numpy(bool)
     return out, blocks, order
 
 
-def _reversed_rows(audited: pd.DataFrame) -> pd.DataFrame:
-    """Audit (checks 1-5) of the values the ``default`` policy fits.
+def _order_only(df: pd.DataFrame) -> pd.DataFrame:
+    """The column-order verdicts (check 6) alone: it reads only the trust checks 1 and 2 set."""
+    r = _Rows(df)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        _check_cells(r)
+        _check_order(r)
+        return _check_reversals(r)
 
-    Each row's ``reversed_columns`` are taken in reverse printed order (``row_in_block``)
-    within its block, with their printed-digit counts; ``<column>_printed`` keeps the printed
-    values, ``reversed_columns`` says which were reversed, and each such row gets a note.
-    ``exclude_default`` is computed on these values; ``exclude_as_printed`` is copied from
-    ``audited`` (the printed rows' audit).
+
+def _mark_decisions(r: _Rows, pending):
+    """A note on each row of a column a documented decision takes reversed."""
+    for idx in r.blocks():
+        n = len(idx)
+        for name in _columns(pending[idx[0]]):
+            for k, i in enumerate(idx):
+                j = idx[n - 1 - k]
+                r.mark(
+                    i,
+                    f"{name} {_DECISION_REASON} ({DECISION_COLUMN}): the default policy fits "
+                    f"{r.frame[name].iloc[j]:g}, printed in row {r.order[j]:g}",
+                    suspect=False,
+                )
+
+
+def _reversed_rows(audited: pd.DataFrame, spec) -> pd.DataFrame:
+    """Audit (checks 1-5) of the values a policy fits: ``spec`` (comma-joined columns per row,
+    the same within a block) taken in reverse printed order (``row_in_block``) within each
+    block, with their printed-digit counts.
+
+    ``<column>_printed`` keeps the printed values, :data:`APPLIED_COLUMN` names the columns a
+    row holds reversed, and each such row gets a note; ``exclude_default`` is computed on these
+    values, ``exclude_as_printed`` and ``reversed_columns`` are copied from ``audited``.
     """
-    spec = audited["reversed_columns"].fillna("").astype(str).to_numpy()
+    spec = np.asarray(spec, dtype=object)
     frame = audited.drop(columns=[c for c in _AUDIT_COLUMNS if c in audited])
     r = _Rows(frame)
     values = {}
-    for name in dict.fromkeys(c for s in spec if s for c in s.split(",")):
-        if f"{name}_printed" in frame:  # these rows hold the reversed values already
-            continue
+    for name in dict.fromkeys(c for s in spec for c in _columns(s)):
         for c in (name, f"{name}_decimals"):
             if c in frame:
                 values[c] = frame[c].to_numpy(copy=True)
-        frame[f"{name}_printed"] = frame[name]
+        if f"{name}_printed" not in frame:
+            frame[f"{name}_printed"] = frame[name]
     for idx in r.blocks():
-        for name in spec[idx[0]].split(",") if spec[idx[0]] else ():
+        for name in _columns(spec[idx[0]]):
             for c in (name, f"{name}_decimals"):
                 if c in values:
                     values[c][idx] = frame[c].to_numpy()[idx][::-1]
-    if not values:  # nothing left to reverse: ``audited`` holds the fitted values already
-        return audited.copy()
     for c, v in values.items():
         frame[c] = pd.Series(v, index=frame.index).astype(frame[c].dtype)
+    before = frame.get(APPLIED_COLUMN, pd.Series("", index=frame.index)).fillna("").astype(str)
+    frame[APPLIED_COLUMN] = [
+        ",".join(dict.fromkeys([*_columns(b), *_columns(s)])) for b, s in zip(before, spec)
+    ]
     out = _analyse(frame, judge_order=False)[0]
+    decided = r.decided
     for i in np.flatnonzero(spec.astype(bool)):
         note = "; ".join(
-            f"{c} taken in reverse order within its block (printed "
-            f"{frame[f'{c}_printed'].iloc[i]:g})"
-            for c in spec[i].split(",")
+            f"{c} taken in reverse order within its block "
+            f"({'a documented decision of the dataset' if c in _columns(decided[i]) else 'the reordered policy'}; "
+            f"printed {frame[f'{c}_printed'].iloc[i]:g})"
+            for c in _columns(spec[i])
         )
         out.iloc[i, out.columns.get_loc("reasons")] = "; ".join(
             x for x in (out["reasons"].iloc[i], note) if x
         )
         if out["flag"].iloc[i] == "ok":
             out.iloc[i, out.columns.get_loc("flag")] = "note"
-    out["reversed_columns"] = spec
+    out["reversed_columns"] = audited["reversed_columns"].to_numpy(object)
     out["exclude_as_printed"] = audited["exclude_as_printed"].to_numpy(bool)
     return out
 
@@ -554,8 +645,14 @@ def _check_smoothness(r: _Rows):
 # ------------------------------------------------------------------ column order (6)
 def _ranks(x) -> np.ndarray:
     """Ranks 1..n of ``x``, ties sharing their average rank."""
-    values, inverse, counts = np.unique(x, return_inverse=True, return_counts=True)
-    return (np.cumsum(counts) - (counts - 1) / 2.0)[inverse.ravel()]
+    x = np.asarray(x, float)
+    o = np.argsort(x, kind="stable")
+    new = np.r_[True, x[o][1:] != x[o][:-1]]
+    starts = np.flatnonzero(new)
+    mean_rank = (starts + np.r_[starts[1:], len(x)] + 1) / 2.0
+    out = np.empty(len(x))
+    out[o] = mean_rank[np.cumsum(new) - 1]
+    return out
 
 
 def _rank_corr(y, z) -> float:
@@ -566,123 +663,147 @@ def _rank_corr(y, z) -> float:
     return float(ry @ rz / norm) if norm > 0 else np.nan
 
 
-def _column_median(zs) -> np.ndarray:
-    """Median of each column of ``zs`` over its finite values (each column has one)."""
-    k = np.isfinite(zs).sum(axis=0)
-    s = np.sort(zs, axis=0)  # NaN sorts last
-    cols = np.arange(zs.shape[1])
-    return (s[(k - 1) // 2, cols] + s[k // 2, cols]) / 2.0
+def _references(r: _Rows, blocks, group) -> tuple[np.ndarray, list[str]]:
+    """Each block's reference input (module comment above :data:`REVERSIBLE`) and its axis.
 
-
-def _reference(r: _Rows, idx, d) -> int | None:
-    """Position in ``idx`` of the block's saturation row, else of the middle of its DF peak."""
-    base = (r.a[idx] > 0) & r.trust["amplitude"][idx] & ~r.dup_extra[idx]
-    sat = np.flatnonzero(base & r.sat[idx])
-    if sat.size:
-        return int(sat[0])
-    ok = np.flatnonzero(base & np.isfinite(d))
-    if not ok.size:
-        return None
-    top = ok[d[ok] == d[ok].max()]
-    return int(top[len(top) // 2])
-
-
-def _curve(r: _Rows, idx, name, y, d):
-    """A block's column on the normalised axis: ``(u, y, positions, reference position)``.
-
-    ``u = log(input / reference input)`` at the rows whose ``y`` enters the comparison
-    (amplitude trusted, not a repeat, finite; for the phase, a non-zero output); ``d`` is
-    the DF the reference is taken from. None without a reference.
+    The marked saturation input; for a block without the mark, its frequency times the median
+    of (saturation input / frequency) over the marked blocks of its group; for a group without
+    marks, its frequency ("flux": the axis is input / frequency).
     """
-    ref = _reference(r, idx, d)
-    if ref is None:
-        return None
+    freq = np.array([r.keys["frequency_hz"].iloc[idx[0]] for idx in blocks], float)
+    sat = np.full(len(blocks), np.nan)
+    for b, idx in enumerate(blocks):
+        marked = idx[r.sat[idx] & (r.a[idx] > 0) & r.trust["amplitude"][idx]]
+        if marked.size:
+            sat[b] = r.a[marked[0]]
+    ref, axis = freq.copy(), ["flux"] * len(blocks)
+    for g in set(group):
+        mine = [b for b in range(len(blocks)) if group[b] == g]
+        ratio = [sat[b] / freq[b] for b in mine if np.isfinite(sat[b])]
+        if ratio:
+            for b in mine:
+                ref[b] = sat[b] if np.isfinite(sat[b]) else freq[b] * np.median(ratio)
+                axis[b] = "saturation"
+    return ref, axis
+
+
+def _curve(r: _Rows, idx, name, y, ref):
+    """A block's column on the flux axis: ``(u, y)`` at the rows whose ``y`` enters the
+    comparison (amplitude trusted, not a repeat, finite; for the phase, a non-zero output)."""
     ok = r.trust["amplitude"][idx] & ~r.dup_extra[idx] & np.isfinite(y) & (r.a[idx] > 0)
     if name == "phase_lead_deg":
         ok &= r.d[idx] > 0
-    return np.log(r.a[idx][ok] / r.a[idx[ref]]), y[ok], np.flatnonzero(ok), ref
+    return np.log(r.a[idx][ok] / ref), y[ok]
 
 
-def _extreme_offset(name, curve, has_sat) -> float:
-    """Rows from the reference row to the phase minimum (DF maximum, when the block has a
-    saturation row); a run of equal extremes counts whole. NaN for other columns."""
-    _, y, pos, ref = curve
-    if name == "phase_lead_deg":
-        ext = pos[y == y.min()]
-    elif name == "df_reported" and has_sat:
-        ext = pos[y == y.max()]
-    else:
-        return np.nan
-    if ext.min() <= ref <= ext.max():
-        return 0.0
-    return float(ext.min() - ref if ext.min() > ref else ext.max() - ref)
+def _covered(u, nu) -> np.ndarray:
+    return (u >= nu.min()) & (u <= nu.max())
 
 
-def _score(curve, neighbours):
-    """Median rank correlation with the neighbours' curves, how many compared, and the RMS
-    distance to their median curve (in the column's unit) over the points they cover."""
-    u, y = curve[0], curve[1]
-    rhos, zs = [], []
-    for nu, ny in neighbours:
-        inside = (u >= nu.min()) & (u <= nu.max())
-        if inside.sum() < MIN_OVERLAP:
-            continue
+def _nanmean(z) -> np.ndarray:
+    """Mean of each column of ``z`` over its finite values (NaN where none is)."""
+    k = np.isfinite(z).sum(axis=0)
+    total = np.where(np.isfinite(z), z, 0.0).sum(axis=0)
+    return np.where(k > 0, total / np.maximum(k, 1), np.nan)
+
+
+def _predict(u, f, neighbours) -> np.ndarray:
+    """The column at ``u`` predicted from the neighbours' ``(frequency, u, y)`` curves.
+
+    At each point the neighbours covering it are interpolated linearly in ``u`` (several at
+    one frequency averaged); the prediction interpolates linearly in log frequency between
+    the nearest lower and higher frequency, else takes the nearest one. NaN where none covers.
+    """
+    at = {}
+    for nf, nu, ny in neighbours:
         o = np.argsort(nu, kind="stable")
-        z = np.full(len(u), np.nan)
-        z[inside] = np.interp(u[inside], nu[o], ny[o])
-        rho = _rank_corr(y[inside], z[inside])
+        at.setdefault(nf, []).append(np.where(_covered(u, nu), np.interp(u, nu[o], ny[o]), np.nan))
+    if not at:
+        return np.full(len(u), np.nan)
+    freqs = np.array(sorted(at))
+    z = np.vstack([_nanmean(np.vstack(at[nf])) for nf in freqs])  # (frequency, point)
+    have, rows = np.isfinite(z), np.arange(len(freqs))[:, None]
+    lo = np.where(have & (freqs < f)[:, None], rows, -1).max(axis=0)
+    hi = np.where(have & (freqs > f)[:, None], rows, len(freqs)).min(axis=0)
+    same = np.where(have & (freqs == f)[:, None], rows, len(freqs)).min(axis=0)
+    cols, last = np.arange(len(u)), len(freqs) - 1
+    a, c = np.clip(lo, 0, None), np.clip(hi, None, last)
+    z_lo, z_hi, lf = z[a, cols], z[c, cols], np.log(freqs)
+    both = (lo >= 0) & (hi <= last)
+    w = (np.log(f) - lf[a]) / np.where(both, lf[c] - lf[a], 1.0)
+    out = np.where(both, z_lo + w * (z_hi - z_lo), np.where(lo >= 0, z_lo, z_hi))
+    out = np.where((lo < 0) & (hi > last), np.nan, out)
+    return np.where(same <= last, z[np.clip(same, None, last), cols], out)
+
+
+def _score(curve, f, neighbours):
+    """``(misfit, rho, neighbours compared, points)`` of one curve: the RMS distance to the
+    column predicted from the comparable neighbours (those covering at least MIN_OVERLAP of
+    its points), and the median of its rank correlations with their curves."""
+    u, y = curve
+    comparable = [c for c in neighbours if _covered(u, c[1]).sum() >= MIN_OVERLAP]
+    rhos = []
+    for _, nu, ny in comparable:
+        inside = _covered(u, nu)
+        o = np.argsort(nu, kind="stable")
+        rho = _rank_corr(y[inside], np.interp(u[inside], nu[o], ny[o]))
         if np.isfinite(rho):
             rhos.append(rho)
-            zs.append(z)
-    if not rhos:
-        return np.nan, 0, np.nan
-    zs = np.vstack(zs)
-    covered = np.isfinite(zs).any(axis=0)
-    mid = _column_median(zs[:, covered])
-    return float(np.median(rhos)), len(rhos), float(np.sqrt(np.mean((y[covered] - mid) ** 2)))
+    pred = _predict(u, f, comparable)
+    ok = np.isfinite(pred)
+    misfit = float(np.sqrt(np.mean((y[ok] - pred[ok]) ** 2))) if ok.sum() >= MIN_OVERLAP else np.nan
+    return misfit, float(np.median(rhos)) if rhos else np.nan, len(comparable), int(ok.sum())
 
 
-def _judge(r: _Rows, idx, name, same, kin) -> dict:
+def _reads_reversed(name, misfit, other, rho, rho_other, ratio=REVERSAL_RATIO) -> bool:
+    """The order with ``misfit``/``rho`` is told from the other one: ``ratio`` times nearer
+    its predicted curve, by REVERSAL_MARGIN at least, and higher in rank correlation (a tie
+    tells nothing: a monotone column against neighbours rising and falling alike)."""
+    return bool(
+        misfit * ratio <= other
+        and other - misfit >= REVERSAL_MARGIN[name]
+        and not rho <= rho_other  # NaN (a constant side) does not veto
+    )
+
+
+def _judge(r: _Rows, idx, name, ref, axis, same, kin, highest=False) -> dict:
     """Check (6) for one (block, column): a record of :func:`_check_reversals`.
 
-    ``same`` are the ``(u, y)`` curves of the other blocks of its table and source impedance,
-    ``kin`` those of the same core's other tables (used when ``same`` gives too few).
+    ``same`` are the ``(frequency, u, y)`` curves of the other blocks of its table and source
+    impedance, ``kin`` those of the same core's other tables (used when ``same`` gives too
+    few comparable ones); ``highest``: the block has its table's highest frequency.
     """
-    rec = dict(r.keys.iloc[idx[0]], column=name, neighbours=0, reversed=False)
+    rec = dict(r.keys.iloc[idx[0]], column=name, axis=axis, neighbours=0, reversed=False)
     rec.update(dict.fromkeys(_REVERSAL_SCORES, np.nan))
+    f = rec["frequency_hz"]
     y = r.column[name][idx]
-    hyp = {  # the DF peak a block without saturation row is referred to moves with the DF
-        False: _curve(r, idx, name, y, r.d[idx]),
-        True: _curve(r, idx, name, y[::-1], y[::-1] if name == "df_reported" else r.d[idx]),
-    }
-    if hyp[False] is None or hyp[True] is None or len(hyp[False][1]) < MIN_OVERLAP:
+    hyp = {rev: _curve(r, idx, name, y[::-1] if rev else y, ref) for rev in (False, True)}
+    if min(len(h[1]) for h in hyp.values()) < MIN_OVERLAP:
         return {**rec, "verdict": f"cannot judge: fewer than {MIN_OVERLAP} usable rows"}
     span, flat = float(np.ptp(hyp[False][1])), FLAT_RANGE.get(name, 0.0)
     if span <= flat:
         return {**rec, "verdict": f"cannot judge: its values span only {span:.3g} (<= {flat:g})"}
-    scores = {rev: _score(hyp[rev], same) for rev in (False, True)}
-    if min(s[1] for s in scores.values()) < MIN_NEIGHBOURS and kin:
-        scores = {rev: _score(hyp[rev], same + kin) for rev in (False, True)}
-    n = rec["neighbours"] = min(s[1] for s in scores.values())
-    if n < MIN_NEIGHBOURS:
+    scores = {rev: _score(hyp[rev], f, same) for rev in (False, True)}
+    if min(s[2] for s in scores.values()) < MIN_NEIGHBOURS and kin:
+        scores = {rev: _score(hyp[rev], f, same + kin) for rev in (False, True)}
+    n = rec["neighbours"] = min(s[2] for s in scores.values())
+    if n < MIN_NEIGHBOURS or not all(np.isfinite(s[0]) for s in scores.values()):
         return {
             **rec,
             "verdict": f"cannot judge: {n} comparable neighbour(s), {MIN_NEIGHBOURS} needed",
         }
-    ext = {rev: _extreme_offset(name, hyp[rev], bool(r.sat[idx].any())) for rev in (False, True)}
+    (mp, rp, _, pts), (mr, rr, _, _) = scores[False], scores[True]
     rec.update(
-        rho_printed=scores[False][0],
-        rho_reversed=scores[True][0],
-        gain=scores[True][0] - scores[False][0],
-        misfit_printed=scores[False][2],
-        misfit_reversed=scores[True][2],
-        extreme_printed=ext[False],
-        extreme_reversed=ext[True],
+        points=pts,
+        misfit_printed=mp,
+        misfit_reversed=mr,
+        ratio=mp / mr if mr > 0 else np.inf,
+        rho_printed=rp,
+        rho_reversed=rr,
+        gain=rr - rp,
     )
-    flagged = bool(
-        rec["gain"] >= REVERSAL_GAIN
-        and rec["rho_reversed"] >= REVERSAL_FIT
-        and not abs(ext[True]) > max(abs(ext[False]), EXTREME_ROWS)  # NaN: no veto
+    flagged = _reads_reversed(
+        name, mr, mp, rr, rp, REVERSAL_RATIO_HIGHEST if highest else REVERSAL_RATIO
     )
     return {**rec, "reversed": flagged, "verdict": "reversed" if flagged else "as printed"}
 
@@ -691,36 +812,55 @@ def _check_reversals(r: _Rows) -> pd.DataFrame:
     """Check (6): columns printed in reverse order within their block.
 
     Every column of :data:`REVERSIBLE` of every block is compared, printed and reversed, with
-    the same column of its neighbouring blocks (module comment above :data:`REVERSIBLE`).
-    The input column is the axis of those comparisons, not a tested column: an input column
-    printed reversed would leave every other column reversed against it, so two or more
-    flagged columns of one block, with no judged column of it reading better as printed
-    (gain <= -REVERSAL_GAIN), are reported and reversed as its input column. The flagged
-    rows are marked suspect without losing trust: the policies decide which order a fit
-    uses (``default`` the reversed, ``as_printed`` the printed one).
+    the same column of its neighbouring blocks at the same flux (module comment above
+    :data:`REVERSIBLE`). The input column is the axis of those comparisons, not a tested
+    column: an input column printed reversed would leave every other column reversed against
+    it, so :data:`INPUT_REVERSED_COLUMNS` or more flagged columns of one block, with no judged
+    column of it reading better as printed, are reported as its input column. The flagged rows
+    are marked suspect without losing trust: the row policies decide the order a fit uses
+    (``trusted`` and ``as_printed`` the printed one, ``reordered`` the reversed one).
     """
     blocks = list(r.blocks())
     group = [tuple(r.keys.iloc[idx[0]][["table", "source_impedance_ohm"]]) for idx in blocks]
     core = [r.core[idx[0]] for idx in blocks]
+    freq = [float(r.keys["frequency_hz"].iloc[idx[0]]) for idx in blocks]
+    ref, axis = _references(r, blocks, group)
+    top = {g: max(f for f, h in zip(freq, group) if h == g) for g in group}
     records = []
     for name in REVERSIBLE:
         if not r.present[name]:
             continue
-        curves = [_curve(r, idx, name, r.column[name][idx], r.d[idx]) for idx in blocks]
-        curves = [c[:2] if c is not None and len(c[0]) >= 2 else None for c in curves]
+        curves = [
+            (freq[b], *_curve(r, idx, name, r.column[name][idx], ref[b]))
+            for b, idx in enumerate(blocks)
+        ]
+        curves = [c if len(c[1]) >= 2 else None for c in curves]
         for b, idx in enumerate(blocks):
             others = [j for j in range(len(blocks)) if j != b and curves[j] is not None]
             same = [curves[j] for j in others if group[j] == group[b]]
             kin = [
                 curves[j] for j in others if group[j] != group[b] and core[b] and core[j] == core[b]
             ]
-            records.append((b, _judge(r, idx, name, same, kin)))
+            records.append(
+                (b, _judge(r, idx, name, ref[b], axis[b], same, kin, freq[b] == top[group[b]]))
+            )
     for b, idx in enumerate(blocks):
         mine = [rec for j, rec in records if j == b]
         flagged = [rec["column"] for rec in mine if rec["reversed"]]
         if not flagged:
             continue
-        if len(flagged) >= 2 and not any(rec["gain"] <= -REVERSAL_GAIN for rec in mine):
+        printed_better = any(
+            np.isfinite(rec["misfit_printed"])
+            and _reads_reversed(
+                rec["column"],
+                rec["misfit_printed"],
+                rec["misfit_reversed"],
+                rec["rho_printed"],
+                rec["rho_reversed"],
+            )
+            for rec in mine
+        )
+        if len(flagged) >= INPUT_REVERSED_COLUMNS and not printed_better:
             for rec in mine:
                 if rec["reversed"]:
                     rec["verdict"] = "reads reversed because the input column is"
@@ -730,6 +870,7 @@ def _check_reversals(r: _Rows) -> pd.DataFrame:
                     {
                         **{k: mine[0][k] for k in _BLOCK},
                         "column": "input_v",
+                        "axis": axis[b],
                         "reversed": True,
                         "verdict": f"reversed: {', '.join(flagged)} read reversed against it",
                     },
@@ -741,9 +882,11 @@ def _check_reversals(r: _Rows) -> pd.DataFrame:
         for k, i in enumerate(idx):
             for name in flagged:
                 j = idx[n - 1 - k]
-                fitted = f"the default policy fits {r.frame[name].iloc[j]:g}"
-                where = f"printed in row {r.order[j]:g}"
-                r.mark(i, f"{name} {_REVERSED_REASON}, see findings): {fitted}, {where}")
+                r.mark(
+                    i,
+                    f"{name} {_REVERSED_REASON}, see findings): reversed, this row would read "
+                    f"{r.frame[name].iloc[j]:g}, printed in row {r.order[j]:g}",
+                )
     order = {c: k for k, c in enumerate((*REVERSIBLE, "input_v"))}
     records.sort(key=lambda x: (x[0], order[x[1]["column"]]))
     return pd.DataFrame([rec for _, rec in records], columns=_REVERSAL_COLUMNS)

@@ -6,7 +6,14 @@ Bundled data (``datasets/`` in a checkout, ``fitdf._bundled`` once installed):
   measurement; ``"B.1"`` .. ``"B.5"`` select one table, ``"permalloy"``, ``"deltamax"``
   and ``"supermalloy"`` every Appendix B row of one core;
 * ``table_5_1`` / ``table_5_2`` (limit cycles, section V.6), ``table_3_1`` (eq 3.12
-  constants), ``appendix_a`` (core data), ``eq_4_11`` (K-S magnet steel ``H_c(H_m)``).
+  constants), ``appendix_a`` (core data), ``eq_4_11`` (K-S magnet steel ``H_c(H_m)``);
+* :data:`DECISIONS` -- the documented decisions about the printed tables (:func:`decisions`).
+  One so far: Table B.5's 10 c/s phase column is printed in reverse order, and the bundled
+  data take it reversed (the evidence is in ``datasets/README.md``, "Decisions"). The cells
+  of ``appendix_b.csv`` stay as printed; :func:`load` names the decided columns of each row
+  in ``reversed_by_decision``, the default row policy (``trusted``,
+  :func:`fitdf.data.audit.select_rows`) applies the decision and says so in each row's
+  reasons, and the ``as_printed`` policy fits the column as printed.
 
 A user's CSV in the Appendix B schema goes through the same validation; any problem
 raises :class:`~fitdf.errors.DataError` with one line naming file, row, line and column.
@@ -32,6 +39,9 @@ from fitdf.errors import DataError
 __all__ = [
     "names",
     "load",
+    "decisions",
+    "DECISIONS",
+    "DECISION_COLUMN",
     "summary",
     "data_dir",
     "APPENDIX_B_COLUMNS",
@@ -56,6 +66,26 @@ APPENDIX_B_COLUMNS = (
     "saturation",
     "df_factor_printed",
     "source",
+)
+#: Column :func:`load` adds to the bundled Appendix B rows (and reads from a user's CSV): the
+#: columns of the row's block a documented decision takes in reverse order, comma-joined.
+DECISION_COLUMN = "reversed_by_decision"
+#: Columns a documented decision may reverse within their block.
+DECIDABLE_COLUMNS = ("phase_lead_deg", "df_reported", "h1_output_v", "input_v")
+#: The documented decisions about the bundled tables: ``(table, source impedance (ohm),
+#: frequency (Hz), column, decision, evidence)``; "reversed" takes the column in reverse
+#: printed order within its block. datasets/README.md ("Decisions") gives the evidence in full.
+DECISIONS = (
+    (
+        "B.5",
+        600.0,
+        10.0,
+        "phase_lead_deg",
+        "reversed",
+        "printed, it falls from 44 deg to 0 two rows past the ** row and rises to 41; reversed, "
+        "its minimum sits at the ** row and its values match the other Deltamax frequencies "
+        "at the same inputs, while its DF and output columns agree with them as printed",
+    ),
 )
 #: Columns a user's CSV must have.
 REQUIRED_COLUMNS = ("input_v", "df_reported", "phase_lead_deg", "frequency_hz")
@@ -160,7 +190,9 @@ def load(name_or_path) -> pd.DataFrame:
         Appendix B schema frames have the columns of :data:`APPENDIX_B_COLUMNS` (float
         numbers, bool ``saturation``, str text), then ``<column>_decimals`` (nullable int:
         decimals printed in that cell) for :data:`DECIMAL_COLUMNS`, then any extra columns
-        of a user's file (as text).
+        of a user's file (as text). The bundled rows end with :data:`DECISION_COLUMN`: the
+        columns of the row's block that a documented decision (:func:`decisions`) takes in
+        reverse order, ``""`` for most rows; the cells themselves are as printed.
 
     Raises
     ------
@@ -240,9 +272,35 @@ def _read_bundled_bytes(filename: str) -> bytes:
 
 @lru_cache(maxsize=1)
 def _bundled_appendix_b() -> pd.DataFrame:
-    return _parse(
+    frame = _parse(
         _read_bundled_bytes("appendix_b.csv"), "appendix_b.csv", stem="appendix_b", bundled=True
     )
+    frame[DECISION_COLUMN] = ""
+    keys = ["table", "source_impedance_ohm", "frequency_hz"]
+    for d in decisions().itertuples(index=False):
+        rows = (frame[keys] == (d.table, d.source_impedance_ohm, d.frequency_hz)).all(axis=1)
+        assert rows.any() and d.column in DECIDABLE_COLUMNS and d.decision == "reversed", d
+        old = frame.loc[rows, DECISION_COLUMN]
+        frame.loc[rows, DECISION_COLUMN] = (old + "," + d.column).str.strip(",")
+    return frame
+
+
+def decisions() -> pd.DataFrame:
+    """The documented decisions about the bundled tables (:data:`DECISIONS`) as a frame.
+
+    One row per decision: ``table``, ``source_impedance_ohm``, ``frequency_hz`` (the block),
+    ``column``, ``decision`` (``"reversed"``: the column is taken in reverse printed order
+    within its block) and ``evidence``. ``datasets/README.md`` ("Decisions") gives the
+    evidence in full. :func:`load` marks the rows of a decided block in
+    :data:`DECISION_COLUMN`; the printed cells are never changed.
+
+    Examples
+    --------
+    >>> decisions()[["table", "frequency_hz", "column", "decision"]].values.tolist()
+    [['B.5', 10.0, 'phase_lead_deg', 'reversed']]
+    """
+    columns = ["table", "source_impedance_ohm", "frequency_hz", "column", "decision", "evidence"]
+    return pd.DataFrame(list(DECISIONS), columns=columns)
 
 
 def _subset(column: str, value: str) -> pd.DataFrame:
@@ -335,7 +393,7 @@ def _records(raw: bytes, label: str):
 
 
 def _check_columns(names_, label, bundled):
-    known = set(APPENDIX_B_COLUMNS)
+    known = {*APPENDIX_B_COLUMNS, DECISION_COLUMN}
     if bundled:
         missing = [c for c in APPENDIX_B_COLUMNS if c not in names_]
         if missing:

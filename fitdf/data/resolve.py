@@ -19,14 +19,16 @@ __all__ = ["resolve_data"]
 
 
 def resolve_data(
-    data, policy: str = "default", source_impedance=None, label: str | None = None
+    data, policy: str = audit.DEFAULT_POLICY, source_impedance=None, label: str | None = None
 ) -> FitData:
     """Rows to fit from a dataset name, core name, CSV path, DataFrame or FitData.
 
-    The audit's row ``policy`` (one of :data:`fitdf.data.audit.POLICIES`: "default",
-    "as_printed", "all" or "strict", see datasets/README.md) decides which rows are used and
-    in which order a column the audit finds printed reversed is taken ("default" reverses
-    it); ``source_impedance`` (ohm) keeps only those rows.
+    The audit's row ``policy`` (one of :data:`fitdf.data.audit.POLICIES`: "trusted", the
+    default, which "default" also names, "reordered", "as_printed", "all" or "strict", see
+    datasets/README.md) decides which rows are used and in which order: no policy but
+    "reordered" reverses a column the audit reads as printed in reverse order, and
+    "trusted" and "reordered" apply the documented decisions of the bundled data (the
+    reversed 10 c/s phase of Table B.5); ``source_impedance`` (ohm) keeps only those rows.
     """
     if isinstance(data, FitData):
         return data
@@ -53,6 +55,7 @@ def resolve_data(
                 f"(available: {', '.join(f'{a:g}' for a in available)})"
             )
         label = f"{label} @ {float(source_impedance):g} ohm"
+    policy = audit.policy_name(policy)
     selected = audit.select_rows(audit.audit(frame), policy)
     if selected.empty:
         raise DataError(f"{label}: no rows left after the '{policy}' row policy")

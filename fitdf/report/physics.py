@@ -8,8 +8,10 @@
 * the **catalogue ranges**: the best joint fits' material constants against Appendix A
   (:data:`CATALOGUE_CONSTANTS`), inside at the nominal stacking factor, for some stacking
   factor of the range, or not;
-* the **reversed column** the audit finds (Table B.5, 10 c/s phase): the affected blocks'
-  best laws fitted with the column as printed beside the default, reversed, policy;
+* the **reversed column** (Table B.5, 10 c/s phase), taken reversed by a documented decision of
+  the bundled data (:data:`fitdf.data.datasets.DECISIONS`), with what the audit's column-order
+  rule finds: the affected blocks' best laws fitted with the column as printed beside the
+  default policy's fits, which apply the decision;
 * the **iron fraction** each core's best joint fit implies with Appendix A's ``B_p``
   (:func:`fitdf.inference.material.implied_stacking_factor`), and the **series resistance**
   the joint fits find against its prior;
@@ -31,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from fitdf._json import clean
-from fitdf.data import datasets
+from fitdf.data import audit, datasets
 from fitdf.data.resolve import resolve_data
 from fitdf.report.criteria import best_law
 from fitdf.report.supermalloy import supermalloy_record
@@ -161,12 +163,19 @@ def _catalogue(blocks: dict) -> list[dict]:
     return out
 
 
-def reversal_record(findings: list[str], blocks: dict, printed: dict) -> dict:
-    """The reversed column and the affected blocks' best laws fitted both ways.
+def reversal_record(findings: list[str], blocks: dict, printed: dict, decisions=None) -> dict:
+    """The decided column, the audit's evidence, and the affected blocks' best laws fitted both
+    ways.
 
-    ``printed``: ``{(block key, law): FitResult}`` of the fits with the ``as_printed``
-    policy; the default policy's are the blocks' own fits."""
-    out = {"finding": [f for f in findings if "reverse" in f], "blocks": {}}
+    ``findings``: the audit's sentences (those giving the evidence of a column read in reverse
+    order are kept); ``decisions``: records of :func:`fitdf.data.audit.decisions` (default: the
+    bundled Appendix B's); ``printed``: ``{(block key, law): FitResult}`` of the fits with the
+    ``as_printed`` policy; the default policy's (the decision applied) are the blocks' own
+    fits."""
+    if decisions is None:
+        decisions = audit.decisions(datasets.load("appendix_b")).to_dict(orient="records")
+    kept = [f for f in findings if " reads in reverse order" in f and not f.startswith("Column")]
+    out = {"decisions": clean(list(decisions)), "finding": kept, "blocks": {}}
     for (key, law), r in printed.items():
         rec = blocks.get(key)
         if rec is None or law not in rec["fits_lsq"]:

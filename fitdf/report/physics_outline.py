@@ -118,8 +118,42 @@ def _catalogue(catalogue: list, claims: dict, names: dict) -> list:
     ]
 
 
+def _decision_text(d: dict) -> str:
+    """One documented decision of the bundled data, said as one (its record's fields)."""
+    values = lambda v: ", ".join(fmt(x, 3) for x in v)  # noqa: E731
+    return (
+        f"Table {d['table']} at {fmt(d['frequency_hz'], 3)} c/s ({fmt(d['source_impedance_ohm'], 3)} "
+        f"ohm): the bundled data take the {d['column']} column ({d['rows']} rows) in reverse "
+        'order, a documented decision of the dataset (datasets/README.md, "Decisions"), not a '
+        "rule applied when the report runs. The cells stay as printed in appendix_b.csv; the "
+        "default row policy fits the column reversed and says so row by row, and "
+        "`--policy as_printed` fits it as printed (the table below). "
+        f"Printed: {values(d['printed'])}; fitted: {values(d['fitted'])}."
+    )
+
+
 def _reversal(rev: dict, names: dict) -> list:
-    out = [P(" ".join(rev.get("finding") or ["The audit finds no column printed in reverse."]))]
+    decisions = rev.get("decisions") or []
+    text = [_decision_text(d) for d in decisions]
+    text += [
+        f"The audit's column-order rule does not flag the {d['column']} column of {d['table']} at "
+        f"{fmt(d['frequency_hz'], 3)} c/s ({d['verdict']}); the decision rests on the evidence "
+        "in datasets/README.md."
+        for d in decisions
+        if d.get("verdict") != "reversed"
+    ]
+    if rev.get("finding"):
+        text.append(
+            "The audit's column-order rule, which on a user's file only flags a column and fits "
+            "it as printed, reads it so too: " + " ".join(rev["finding"])
+        )
+    out = [
+        P(
+            " ".join(text)
+            or "The audit finds no column printed in reverse order, and the data "
+            "take none reversed."
+        )
+    ]
     rows = []
     for key, e in (rev.get("blocks") or {}).items():
         for law_name, d in e["default"].items():
@@ -140,9 +174,9 @@ def _reversal(rev: dict, names: dict) -> list:
                 [
                     "block",
                     "law",
-                    "RMS, reversed (default)",
+                    "RMS, reversed (decision; default)",
                     "RMS, as printed",
-                    "AICc, reversed",
+                    "AICc, reversed (decision)",
                     "AICc, as printed",
                 ],
                 rows,
