@@ -21,6 +21,16 @@ Part 2 (``--accuracy``) compares the chain with the time-stepping reference of
 ``tests/test_dynamic_chain.py`` on a grid of 24 points (0.01-16 V, 3, 10, 50 Hz, 0 and 600
 ohm) at the test's coefficients, and the ``voltage`` chain with the same reference without
 losses, and prints the largest ``|DF - DF_ref|`` per impedance.
+
+Part 3 (``--before REV``, about 3 minutes more) sets the root search of the git revision
+``REV`` (``benchmarks/_revision.py``) beside this checkout's, in this process: the time per
+evaluation of both chains with each, on Part 1's rows and sets (medians and the median of
+the per-set ratios, after over before) and on the threshold scan of
+``benchmarks/dynamic_threshold.py`` (``constant_width``, V/(R b) 1-1.2, 328 points); and the
+largest change of the DF between the two over every law, at its defaults and at the
+parameters of ``tests/test_voltage_chain.py``, on 0.003-16 V, 3, 10, 30, 50 c/s, 0 and 600
+ohm, through ``voltage`` and through ``dynamic`` with the test's coefficients and the B.4
+fit's.
 """
 
 from __future__ import annotations
@@ -35,15 +45,17 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # before numpy loads BLAS
 
 import numpy as np  # noqa: E402
+from _revision import root_search, secant_update_at  # noqa: E402
 
 from fitdf.chains import DynamicChain, VoltageChain  # noqa: E402
 from fitdf.data.cores import core_geometry  # noqa: E402
 from fitdf.inference.api import resolve_data  # noqa: E402
-from fitdf.models import get_model  # noqa: E402
+from fitdf.models import MODELS, get_model  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 import test_dynamic_chain as ref  # noqa: E402  (the reference lives with the tests)
+import test_voltage_chain as vref  # noqa: E402
 
 R_WINDING = 53.8  # Supermalloy's (Appendix A estimate)
 #: Supermalloy-like laws: Preisach from the B.4 voltage fit, Rayleigh with ~20k initial
@@ -155,14 +167,110 @@ def accuracy():
         )
 
 
+def against(rev, repeats):
+    """Part 3: the root search of ``rev`` beside this checkout's (module docstring)."""
+    before = secant_update_at(rev)
+
+    def timed(step, fn):
+        t0 = time.perf_counter()
+        if step is None:
+            out = fn()
+        else:
+            with root_search(step):
+                out = fn()
+        return time.perf_counter() - t0, out
+
+    data = resolve_data("B.4")
+    V, f, Rs = data.amplitude, data.frequency, data.source_impedance
+    rng = np.random.default_rng(1)
+    print(f"\nPart 3: the root search of {rev} (before) beside this checkout's (after)")
+    print(f"{'law':9s} {'chain':8s} {'batch':>5s} {'before':>10s} {'after':>10s} {'ratio':>6s}")
+    c_cl, c_ex = LEVELS["B.4 fit"]
+    for name, theta in LAWS.items():
+        model = get_model(name)
+        th0 = np.array(theta)
+        for chain, extra in ((VoltageChain, []), (DynamicChain, [c_cl, c_ex])):
+            for batch in (1, 32):
+                shape = (batch, th0.size) if batch > 1 else th0.shape
+                ct = np.broadcast_to([R_WINDING, 1.0, *extra], (batch, 2 + len(extra)))
+                ct = ct if batch > 1 else ct[0]
+                for step in (before, None):  # compile and warm (not timed)
+                    timed(step, lambda: chain.predict(model, V, f, Rs, th0, ct))
+                tb, ta = [], []
+                for k in range(repeats):
+                    th = th0 * np.exp(0.05 * rng.standard_normal(shape))
+                    order = (before, None) if k % 2 == 0 else (None, before)
+                    for step in order:
+                        t, _ = timed(step, lambda th=th: chain.predict(model, V, f, Rs, th, ct))
+                        (tb if step is before else ta).append(t)
+                tb, ta = np.array(tb), np.array(ta)
+                print(
+                    f"{name:9s} {chain.name:8s} {batch:5d} {np.median(tb) * 1e3:7.1f} ms "
+                    f"{np.median(ta) * 1e3:7.1f} ms {np.median(ta / tb):6.2f}"
+                )
+    x, f3, R3 = (
+        a.ravel()
+        for a in np.meshgrid(np.linspace(1.0, 1.2, 41), [3.0, 10.0, 30.0, 50.0], [0.0, 600.0])
+    )
+    theta = ref.DELTAMAX_CW
+    V3 = x * (R3 + R_WINDING) * theta[1]
+    ct = [R_WINDING, 1.0, 1e-4, 1e-4]
+    tb, ta = [], []
+    for k in range(repeats):
+        order = (before, None) if k % 2 == 0 else (None, before)
+        for step in order:
+            t, _ = timed(
+                step, lambda: DynamicChain.predict("constant_width", V3, f3, R3, theta, ct)
+            )
+            (tb if step is before else ta).append(t)
+    print(
+        f"threshold scan ({V3.size} points, constant_width): {np.median(tb) * 1e3:.1f} ms before, "
+        f"{np.median(ta) * 1e3:.1f} ms after, ratio {np.median(np.array(ta) / np.array(tb)):.2f}"
+    )
+    V, f, Rs = (
+        a.ravel()
+        for a in np.meshgrid(
+            np.logspace(-2.5, np.log10(16), 24), [3.0, 10.0, 30.0, 50.0], [0.0, 600.0]
+        )
+    )
+    coefficients = ([], [ref.C_CL, ref.C_EX], list(LEVELS["B.4 fit"]))
+    print(f"DF change, after - before, on {V.size} points per law, set and chain:")
+    worst = 0.0
+    for name in MODELS:
+        model = get_model(name)
+        sets = [[p.default for p in model.params]]
+        if name in vref.PARAMS:
+            sets.append(vref.PARAMS[name])
+        big, where = 0.0, ""
+        for theta in sets:
+            for extra in coefficients:
+                chain = DynamicChain if extra else VoltageChain
+                ct = [R_WINDING, 1.0, *extra]
+                _, d0 = timed(before, lambda: chain.predict(model, V, f, Rs, theta, ct))
+                _, d1 = timed(None, lambda: chain.predict(model, V, f, Rs, theta, ct))
+                d = np.abs(d1 - d0)
+                q = int(np.argmax(d))
+                if d[q] > big:
+                    big = d[q]
+                    where = f"{V[q]:.3g} V, {f[q]:.0f} c/s, {Rs[q]:.0f} ohm, {chain.name}"
+        worst = max(worst, big)
+        print(f"  {name:24s} largest {big:.1e}" + (f" ({where})" if big > 0 else ""))
+    print(f"  largest over every law {worst:.1e}")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats")
     parser.add_argument("--accuracy", action="store_true", help="also the accuracy grid")
+    parser.add_argument(
+        "--before", metavar="REV", help="also the root search of this revision beside this one's"
+    )
     ns = parser.parse_args(argv)
     cost(5 if ns.quick else 15)
     if ns.accuracy:
         accuracy()
+    if ns.before:
+        against(ns.before, 5 if ns.quick else 15)
 
 
 if __name__ == "__main__":

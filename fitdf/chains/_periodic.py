@@ -591,6 +591,15 @@ def half_period_wave(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
 
 
 # ---------------------------------------------------------------- root search, per point
+#: Relative width at which a bracket whose ends' DFs differ by more than half the larger is
+#: accepted all the same (the DF then jumps at the root itself).
+BRACKET_FLOOR = 1e-9
+
+#: Where the DF jumps inside the bracket, the largest quadratic term of the DF at a secant
+#: root (its curvature through the bracket's other end), as a share of ``df_tol``, with which
+#: the root is accepted without an evaluation there.
+CURVATURE_SHARE = 0.25
+
 # Slots of the search state: the last two evaluations (A1, A2) and the two newest on
 # each side of the root (L: G > 0, H: G <= 0).
 _A1, _A2, _L1, _L2, _H1, _H2 = 0, 1, 2, 3, 4, 5
@@ -693,10 +702,28 @@ def secant_update(act, xs, gs, ds, it, X, G, D, F, C, done, tol, max_step, df_to
             r, sr_, dr = rL, sL, dL
         elif use == _H1:
             r, sr_, dr = rH, sH, dH
+        # Where the DFs at the bracket's ends differ by more than half the larger, the DF
+        # jumps inside it -- at a dead zone's edge the loop closes and the DF falls to 0 --
+        # and no interpolation between them is the root's. G jumps there too, but crosses 0
+        # continuously just beyond the edge, where the DF has its value: the search narrows
+        # on to that crossing instead of accepting the bracket.
+        both = np.isfinite(X[p, _L1]) and np.isfinite(X[p, _H1])
+        df_jump = both and abs(D[p, _H1] - D[p, _L1]) > 0.5 * max(abs(D[p, _H1]), abs(D[p, _L1]))
         conv = False
         if use >= 0:
             x1, d1, x2 = X[p, use], D[p, use], X[p, use + 1]
             close = abs(r - x1) <= tol * x1 and abs(dr - d1) <= df_tol
+            # and, where the DF jumps inside the bracket, the DF's curvature through the
+            # bracket's other end leaves a small quadratic term at the root: just beyond a
+            # dead zone's edge the DF bends steeply, and the secant of two points farther
+            # out can be nearly flat
+            if df_jump and np.isfinite(x2) and x1 != x2:
+                q = X[p, _H1] if G[p, use] > 0 else X[p, _L1]
+                dq = D[p, _H1] if G[p, use] > 0 else D[p, _L1]
+                if q != x1 and q != x2:
+                    curv = ((d1 - D[p, use + 1]) / (x1 - x2) - (d1 - dq) / (x1 - q)) / (x2 - q)
+                    if abs(curv) * abs(r - x1) * abs(r - x2) > CURVATURE_SHARE * df_tol:
+                        close = False
             if it == 0:
                 # one evaluation: only an exact hit (slopes from a coarser stage can be off
                 # by 10x where the DF is sensitive, e.g. at the edge of a dead zone)
@@ -711,13 +738,13 @@ def secant_update(act, xs, gs, ds, it, X, G, D, F, C, done, tol, max_step, df_to
             F[p, 8] = sr_
             if np.isfinite(x2) and x1 != x2:
                 C[p, 1] = (D[p, use] - D[p, use + 1]) / (x1 - x2)
-        both = np.isfinite(X[p, _L1]) and np.isfinite(X[p, _H1])
-        narrow = hi - lo <= 0.125 * tol * hi
+        narrow = hi - lo <= (BRACKET_FLOOR if df_jump else 0.125 * tol) * hi
         # (a bracket of tol with DFs close at its ends will do where a secant root lies inside
         # it; where none does, G jumps inside it -- the edge where the peak is reached by a
         # jump into saturation, G > 0 up to it -- and the bracket is narrowed to tol / 8, so
-        # the peak current too is close to the edge)
-        if both and use >= 0 and hi - lo <= tol * hi and abs(D[p, _H1] - D[p, _L1]) <= 2.0 * df_tol:
+        # the peak current too is close to the edge; neither where the DF jumps inside it)
+        close_ends = both and abs(D[p, _H1] - D[p, _L1]) <= 2.0 * df_tol and not df_jump
+        if close_ends and use >= 0 and hi - lo <= tol * hi:
             narrow = True
         mid = 0.5 * (lo + hi)
         if hi > 4.0 * lo:

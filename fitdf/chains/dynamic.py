@@ -70,8 +70,12 @@ through saturation at 0 and 600 ohm, 3 and 50 Hz, with coefficients that move it
 to 0.7 (the branch amplitude and peak current to 4e-4). On a grid of 24 points the
 largest error is 1.4e-5 at 600 ohm and 1.4e-4 at 0 ohm, just above the knee: there the
 branch table limits it (256 nodes instead of 64 take it to 1e-5) and the ``voltage`` chain
-is itself off by up to 2e-4 (4e-4 at 1.4 V, 3 Hz). Cost: 1.3 (Preisach) to 2.3 (Rayleigh,
-a batch of 32) times the ``voltage`` chain's on Table B.4.
+is itself off by up to 2e-4 (4e-4 at 1.4 V, 3 Hz). Just above a dead zone's edge
+(``constant_width``, ``V/(R b)`` 1-1.2, 3-50 Hz, 0 and 600 ohm, with and without either
+coefficient) it agrees to 9.9e-5 at 4920 points with a whole-period reference
+(``PlayReference`` in ``tests/test_dynamic_chain.py``; ``benchmarks/dynamic_threshold.py``).
+Cost: 1.3 (Preisach) to 2.3 (Rayleigh, a batch of 32) times the ``voltage`` chain's on
+Table B.4.
 
 What it does to Supermalloy (``benchmarks/dynamic_supermalloy.py``): Table B.4 with the
 Preisach law is fitted no better than through the ``voltage`` chain (RMS complex residual

@@ -308,6 +308,18 @@ def _search(
     only the DF, near the edge; it took the DF's error at such edges from ~2e-4 to ~5e-5
     against the exact piecewise references.)
 
+    Except where the DF jumps inside the bracket: DFs at its ends that differ by more than
+    half the larger. At the edge of a dead zone (``constant_width`` with ``V/R`` just above
+    its half-width) the loop closes for every amplitude below the edge and the DF there is
+    0; ``G`` jumps at the edge but crosses 0 continuously just beyond it, in a sliver that
+    can be 1e-5 of the amplitude wide, and the steady state is that crossing. There a bracket
+    is accepted only once narrower than
+    :data:`~fitdf.chains._periodic.BRACKET_FLOOR` (never an interpolation between a closed
+    and an open loop: it gave half the DF), and a secant root only if also the DF's
+    quadratic term at the root, from its curvature through the bracket's other end, is at
+    most :data:`~fitdf.chains._periodic.CURVATURE_SHARE` times ``df_tol`` (beyond the
+    edge the DF bends steeply, and two points farther out can have a nearly flat secant).
+
     Returns ``(root, DF at the root, slope of G, slope of DF, lower end of the bracket)``;
     the slopes are those of the pair followed last (for a following stage).
     """
