@@ -750,6 +750,10 @@ def _print_fit(comparison, args, *, brief: bool) -> None:
             print("  " + line)
 
 
+#: ``fitdf.inference.selection.ROWS_RULE`` (this module imports no fitting code at its top).
+ROWS_RULE = "AICc needs two numbers a row, at least the parameters plus two"
+
+
 def _selection_text(selection) -> str:
     """What the selection rule calls best, the criteria that disagree, the laws not ranked:
     each a wrapped line of :class:`~fitdf.inference.selection.Selection`'s sentences."""
@@ -759,10 +763,7 @@ def _selection_text(selection) -> str:
     if selection.not_ranked:
         laws = ", ".join(f"{r['model']} ({r['n_params']} parameters)" for r in selection.not_ranked)
         n = selection.not_ranked[0]["n_points"]
-        text = (
-            f"Not fitted or ranked, {n} rows being too few (a law needs a row per parameter): "
-            f"{laws}."
-        )
+        text = f"Not fitted or ranked, {n} rows being too few ({ROWS_RULE}): {laws}."
         lines += textwrap.wrap(text, TEXT_WIDTH)
     return "\n".join(lines)
 
@@ -1073,8 +1074,8 @@ def build_parser() -> argparse.ArgumentParser:
         default="aicc",
         choices=RANK_CHOICES,
         help="the column that orders the ranking (default aicc); whatever the order, the best "
-        "law is the one with the lowest AICc among the laws the rows can rank (a reading per "
-        "parameter): docs/method/ranking.rst",
+        "law is the one with the lowest AICc among the laws the rows can rank (two numbers a "
+        "row, at least the parameters plus two): docs/method/ranking.rst",
     )
     sp.add_argument(
         "--policy",

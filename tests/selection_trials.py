@@ -10,9 +10,14 @@ is one of
 * ``tie``: it calls another law best and names the true law among its ties;
 * ``wrong``: it calls another law best, and the true law is not among its ties;
 * ``not_ranked``: the rows are too few for the true law (the rule cannot pick it).
+
+:func:`rst_table` counts them per true law and size (:data:`VARIANTS`: the rule, the rule
+with a row per parameter as its minimum, the lowest in-sample RMS), as the documents show.
 """
 
 from __future__ import annotations
+
+from collections import Counter
 
 import numpy as np
 import pandas as pd
@@ -126,3 +131,59 @@ def rms_outcome(truth: str, fits) -> str:
     """The outcome of ranking by the in-sample RMS complex residual (no ties, no threshold)."""
     best = min(fits, key=lambda r: r["rms_complex"])
     return "picked" if best["model"] == truth else "wrong"
+
+
+#: What the table counts: the rule, the variant with a row per parameter, the in-sample RMS.
+VARIANTS = {
+    "rule": lambda truth, fits: outcome(truth, fits),
+    "row_per_parameter": lambda truth, fits: outcome(truth, fits, lambda k: k),
+    "rms": rms_outcome,
+}
+
+
+def counts(trials) -> dict:
+    """``(truth, n) -> {variant: Counter of outcomes}``, outcomes recomputed from the fits."""
+    cells = {}
+    for t in sorted(trials, key=lambda t: (list(TRUTHS).index(t["truth"]), t["n_rows"])):
+        cell = cells.setdefault((t["truth"], t["n_rows"]), {k: Counter() for k in VARIANTS})
+        for key, f in VARIANTS.items():
+            cell[key][f(t["truth"], t["fits"])] += 1
+    return cells
+
+
+def rst_table(trials) -> str:
+    """The study's table as RST (docs/method/ranking.rst)."""
+    k = {t["truth"]: f["n_params"] for t in trials for f in t["fits"] if f["model"] == t["truth"]}
+    head = [
+        "true law (parameters)",
+        "rows",
+        "trials",
+        "rule: true law best",
+        "tie",
+        "another law",
+        "not rankable",
+        "a row per parameter: true law best",
+        "not rankable",
+        "lowest RMS: true law",
+    ]
+    lines = [".. list-table::", "   :header-rows: 1", ""]
+    rows = [head]
+    for (truth, n), c in counts(trials).items():
+        rule, row, rms = c["rule"], c["row_per_parameter"], c["rms"]
+        rows.append(
+            [
+                f"{truth} ({k[truth]})",
+                n,
+                sum(rule.values()),
+                rule["picked"],
+                rule["tie"],
+                rule["wrong"],
+                rule["not_ranked"],
+                row["picked"],
+                row["not_ranked"],
+                rms["picked"],
+            ]
+        )
+    for r in rows:
+        lines += [f"   * - {r[0]}", *(f"     - {v}" for v in r[1:])]
+    return "\n".join(lines)

@@ -306,8 +306,8 @@ def test_aicc_overturns_the_rms_order_for_many_parameters_on_few_points():
     assert t.loc["rich", "delta_aicc"] == pytest.approx(27.755863 - 5.333333, abs=1e-5)
     assert t.loc["simple", "aicc_weight"] == pytest.approx(0.9999865, abs=1e-7)
     assert t.loc["simple", "indistinguishable_from"] == ""
-    # a seventh parameter on the six rows: not ranked at all (a row per parameter)
-    richer = fitted("richer", np.full(6, 0.1 * (1 + 1j)), k=7)
+    # eleven parameters on the six rows' twelve numbers: not ranked (AICc needs k + 2)
+    richer = fitted("richer", np.full(6, 0.1 * (1 + 1j)), k=11)
     assert list(ranking_table([simple, richer])["model"]) == ["simple"]
 
 

@@ -1,13 +1,15 @@
 """Which law is best: the one rule of ``fitdf fit``, ``fitdf limit-cycle``, the thesis's
 comparisons and the report (the method: ``docs/method/ranking.rst``, *Model selection*).
 
-1. **Enough rows.** ``n`` rows give ``N = 2 n`` numbers (magnitude and phase). A law with
-   ``k`` fitted parameters is ranked only when ``n >= k`` (:func:`rows_needed`): every
-   parameter has a reading of its own and as many numbers are left over to judge the fit.
-   AICc itself needs only ``N >= k + 2``; ``benchmarks/selection_study.py`` measured that
-   the laws it then admits (``k < n``) are picked on five rows only when they are wrong.
-   A law below the line is not fitted by :func:`~fitdf.inference.ranking.compare_fits` and
-   not ranked (:func:`rank_reason` says why).
+1. **Enough rows for AICc.** ``n`` rows give ``N = 2 n`` numbers (magnitude and phase); a
+   law with ``k`` fitted parameters is ranked only when ``N >= k + 2``
+   (:func:`rows_needed`), where AICc's correction ``2k(k+1)/(N-k-1)`` is finite. Near that
+   line the correction is large (144 for 8 parameters on 5 rows), so such a law is called
+   best only when it fits far better. ``benchmarks/selection_study.py`` measured the
+   stricter line of a row per parameter (``n >= k``) against it: on 7 rows the 8-parameter
+   law was the true law and best by AICc in every trial, which that line would not have
+   ranked (``docs/method/ranking.rst``). A law below the line is not fitted by
+   :func:`~fitdf.inference.ranking.compare_fits` and not ranked (:func:`rank_reason`).
 2. **The lowest AICc.** Among the ranked laws the best has the lowest AICc
    (:mod:`fitdf.inference.metrics`): every method computes it, at the least-squares
    optimum or the posterior's point estimate. Where least-squares rows are present they
@@ -33,6 +35,7 @@ from dataclasses import dataclass, field
 from fitdf.errors import DataError
 
 __all__ = [
+    "ROWS_RULE",
     "TIE_AICC",
     "TIE_TWO_LN_B",
     "TIE_LOO_SE",
@@ -86,10 +89,13 @@ SECOND_OPINIONS = (
 )
 
 
+#: Why a law needs the rows of :func:`rows_needed` (the words of every message).
+ROWS_RULE = "AICc needs two numbers a row, at least the parameters plus two"
+
+
 def rows_needed(n_params: int) -> int:
-    """Rows a law of ``n_params`` fitted parameters needs to be ranked: one per parameter,
-    and at least the two AICc needs for one (``2 n >= k + 2``)."""
-    return max(int(n_params), (int(n_params) + 3) // 2)
+    """Rows a law of ``n_params`` fitted parameters needs to be ranked: ``2 n >= k + 2``."""
+    return (int(n_params) + 3) // 2
 
 
 def rank_reason(n_rows: int, n_params: int) -> str | None:
@@ -98,7 +104,7 @@ def rank_reason(n_rows: int, n_params: int) -> str | None:
     if n_rows >= need:
         return None
     many = f"{n_params} parameters need" if n_params != 1 else "1 parameter needs"
-    return f"{many} {need} rows (a reading per parameter); the data have {n_rows}"
+    return f"{many} {need} rows ({ROWS_RULE}); the data have {n_rows}"
 
 
 def not_ranked_record(model: str, chain: str, n_rows: int, n_params: int) -> dict | None:
@@ -122,7 +128,7 @@ def too_few_rows_message(label: str, n_rows: int, not_ranked) -> str:
     return (
         f"{label}: {n_rows} row{'s' if n_rows != 1 else ''} cannot rank any law: the smallest, "
         f"{smallest['model']}, has {smallest['n_params']} parameters and needs "
-        f"{smallest['rows_needed']} rows (a reading per parameter)"
+        f"{smallest['rows_needed']} rows ({ROWS_RULE})"
     )
 
 
