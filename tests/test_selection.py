@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -27,9 +28,12 @@ from selection_trials import (
 from synthetic import synthetic_frame
 from test_cli import assert_user_error, run_here
 
+import fitdf
+from fitdf.data.cores import parse_geometry
 from fitdf.errors import DataError
 from fitdf.inference.api import resolve_data
 from fitdf.inference.caveats import undetermined_parameters
+from fitdf.inference.material import material_record
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import Comparison, ranking_table
 from fitdf.inference.selection import (
@@ -277,3 +281,21 @@ def test_the_documented_study_table_is_the_studys():
     assert found == 0
     n_fits = sum(len(t["fits"]) for t in trials)
     assert f"{n_fits} fits" in docs
+
+
+def test_material_caveat_names_the_open_parameters_but_never_the_gain():
+    """The material record's ``undetermined`` and ``caveat``: the parameters the data leave
+    open that the constants rest on; a calibration gain, used by no constant, is left out."""
+    frame = synthetic_frame(
+        "constant_width", {"k": 80.0, "b": 2e-4, "c": 0.04, "r_series": 100.0, "gain": 0.95}
+    )
+    geometry = parse_geometry("turns=1250,od=2.5in,id=2.0in,height=0.5in")
+    fit = fitdf.fit(frame, "constant_width", chain="winding", policy="all", geometry=geometry)
+    tight = {n: {"p16": 1.0, "p84": 1.0} for n in fit.problem.names}
+    x = np.mean(fit.problem.internal_bounds(), axis=1)
+    open_ = {"b": {"p16": 1e-6, "p84": 1e-4}, "gain": {"p16": 0.1, "p84": 10.0}}
+    record = material_record(replace(fit, intervals={**tight, **open_}, internal=x))
+    assert record["undetermined"] == ["b"]
+    assert record["caveat"].startswith("the data do not determine b (on a bound")
+    assert record["caveat"].endswith("the constants computed from it are as open")
+    assert material_record(replace(fit, intervals=tight, internal=x))["caveat"] is None
