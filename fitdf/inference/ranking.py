@@ -6,8 +6,8 @@ Ranking
     :mod:`fitdf.inference.metrics`), PSIS-LOO and WAIC for MCMC fits, and a cross-validated RMS
     complex residual (leave one frequency out, fit the rest by least squares, predict
     it). Default order: AICc, the criterion of the rule that calls a law best
-    (:mod:`fitdf.inference.selection`: a law with fewer rows than parameters is not fitted or
-    ranked, the lowest AICc is best). Two models are called *indistinguishable*
+    (:mod:`fitdf.inference.selection`: a law is ranked when AICc is defined on its rows,
+    ``2 n >= k + 2``, and the lowest AICc is best). Two models are called *indistinguishable*
     when their AICc differ by less than 2 (least squares) or their elpd_loo difference is
     smaller than twice its standard error ``dse`` (MCMC: :func:`arviz.compare` on the pair;
     identical pointwise elpd counts as a tie).
@@ -260,8 +260,8 @@ def ranking_table(results, rank_by: str = "aicc", cv: dict | None = None) -> pd.
     """The ranking of fitted results (all fitted to the same rows), ordered by ``rank_by``
     (default AICc, the selection rule's criterion; the first of equals first).
 
-    Results on fewer rows than their parameters
-    (:func:`~fitdf.inference.selection.rank_reason`) are left out; ``cv`` maps a result's
+    Results whose rows cannot rank them (:func:`~fitdf.inference.selection.rank_reason`)
+    are left out (a DataError when none is left); ``cv`` maps a result's
     position in ``results`` to its :func:`cross_validate` record.
     """
     if rank_by not in RANK_COLUMNS:
