@@ -501,7 +501,7 @@ def _table_text(headers, rows, left=(), sep="  ") -> list[str]:
     ]
 
 
-def _ranking_text(table, rank_by: str = "rms_complex", wide: bool = False) -> str:
+def _ranking_text(table, rank_by: str = "aicc", wide: bool = False) -> str:
     """The ranking as text: every column with ``wide``, else the columns a reader needs
     first, no line longer than :data:`TEXT_WIDTH`, and a legend of those columns."""
     if wide:
@@ -656,6 +656,7 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
                 "seed": args.seed,
                 "rank_by": args.rank_by,
                 "ranking": comparison.table.to_dict(orient="records"),
+                "selection": comparison.selection.to_dict(),
                 "fits": [r.to_dict() for r in comparison.results],
             }
             records.append(clean(record))
@@ -677,21 +678,22 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
         else:
             _emit_json(records[0])
     elif batch:
-        print(f"\nSummary ({len(summary)} datasets, best by {args.rank_by}):")
+        print(f"\nSummary ({len(summary)} datasets, best: the lowest AICc of the laws ranked):")
         print(_summary_text(summary))
     return 0
 
 
 def _summary_row(src, comparison) -> dict:
-    """One dataset's line of the batch summary: its best model and how well it fits."""
-    top, best = comparison.table.iloc[0], comparison.best
+    """One dataset's line of the batch summary: its best model (the selection rule's) and how
+    well it fits."""
+    best = comparison.best
     return {
         "data": str(src),
         "best_model": best.model,
         "chain": best.chain,
         "method": best.method,
-        "rms_complex": float(top["rms_complex"]),
-        "aicc": float(top["aicc"]),
+        "rms_complex": float(best.metrics["rms_complex"]),
+        "aicc": float(best.metrics["aicc"]),
         "n_points": int(best.metrics["n_points"]),
     }
 
@@ -735,6 +737,8 @@ def _print_fit(comparison, args, *, brief: bool) -> None:
         f"{', '.join([*how, f'seed {args.seed}'])}), ordered by {args.rank_by}:"
     )
     print(_ranking_text(table, args.rank_by, wide=wide))
+    print()
+    print(_selection_text(comparison.selection))
     if not brief:
         print("\nBest model:")
         print(best.summary())
@@ -782,10 +786,41 @@ def _print_fit(comparison, args, *, brief: bool) -> None:
             print("  " + line)
 
 
+#: ``fitdf.inference.selection.ROWS_RULE`` (this module imports no fitting code at its top).
+ROWS_RULE = "AICc needs two numbers a row, at least the parameters plus two"
+
+
+def _selection_text(selection) -> str:
+    """What the selection rule calls best, the criteria that disagree, the laws not ranked:
+    each a wrapped line of :class:`~fitdf.inference.selection.Selection`'s sentences."""
+    lines = textwrap.wrap(selection.sentence, TEXT_WIDTH)
+    if selection.disagreement:
+        lines += textwrap.wrap(selection.disagreement, TEXT_WIDTH)
+    if selection.not_ranked:
+        laws = ", ".join(f"{r['model']} ({r['n_params']} parameters)" for r in selection.not_ranked)
+        n = selection.not_ranked[0]["n_points"]
+        text = f"Not fitted or ranked, {n} rows being too few ({ROWS_RULE}): {laws}."
+        lines += textwrap.wrap(text, TEXT_WIDTH)
+    return "\n".join(lines)
+
+
 def _material_text(result) -> str:
-    """The best fit's material constants beside the Appendix A ranges (when there is a geometry)."""
+    """The best fit's material constants beside the Appendix A ranges (when there is a
+    geometry), and the caveat when they rest on parameters the data do not determine."""
     if result.material is None:
         return "  (no core geometry: material constants not computed; see --geometry)"
+    caveat = result.material.get("caveat")
+    text = _material_lines(result)
+    if caveat:
+        wrapped = textwrap.wrap(
+            f"caveat: {caveat}", TEXT_WIDTH, initial_indent="  ", subsequent_indent="    "
+        )
+        text += "\n" + "\n".join(wrapped)
+    return text
+
+
+def _material_lines(result) -> str:
+    """The constants, against the Appendix A ranges where the core has them."""
     check = result.material.get("appendix_a_check")
     if not check:
         c = result.material["constants"]
@@ -1070,7 +1105,14 @@ def build_parser() -> argparse.ArgumentParser:
         "(50 autocorrelation times, R-hat < 1.01, bulk ESS >= 400; default 5000); a chain "
         "whose 50 autocorrelation times exceed it stops early",
     )
-    sp.add_argument("--rank-by", default="rms_complex", choices=RANK_CHOICES)
+    sp.add_argument(
+        "--rank-by",
+        default="aicc",
+        choices=RANK_CHOICES,
+        help="the column that orders the ranking (default aicc); whatever the order, the best "
+        "law is the one with the lowest AICc among the laws the rows can rank (two numbers a "
+        "row, at least the parameters plus two): docs/method/ranking.rst",
+    )
     sp.add_argument(
         "--policy",
         default=POLICY_CHOICES[0],

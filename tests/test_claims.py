@@ -395,3 +395,17 @@ def test_the_posteriors_statement_counts_the_widened_boxes_that_missed():
     assert "the one run did not miss the posterior" in said
     assert said.endswith("1 of the widened boxes hold no stratified estimate (a record from "
                          "before it): their evidence is not a result.")  # fmt: skip
+
+
+def test_the_sentences_best_law_is_the_selection_rules(tiny_report):
+    """The best law and its AICc ties that the sentences recompute from the ranking's columns
+    (fitdf.report.criteria) are the selection rule's record of the block
+    (fitdf.inference.selection), so that the report and `fitdf fit` mean one thing by best."""
+    results = json.loads((tiny_report / "results.json").read_text())
+    for key, rec in results["blocks"].items():
+        rows = rec["ranking_lsq"]
+        models, aicc = [r["model"] for r in rows], [r["aicc"] for r in rows]
+        sel = rec["selection"]
+        assert criteria.best_law(models, aicc) == sel["best"]["model"], key
+        tied = {m for m, _ in criteria.aicc_ties(models, aicc)}
+        assert tied == {t.split("/")[0] for t in sel["ties"]}, key

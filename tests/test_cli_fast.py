@@ -2,8 +2,8 @@
 
 The command line imports what a subcommand needs only when that subcommand runs
 (fitdf/cli.py). These tests check *which modules are imported*, not a time, so they do not
-depend on the machine's load. The parser's choices, written out in cli.py for that
-reason, must stay those of the library. And ArviZ's refactor notice, not about the user's
+depend on the machine's load. The parser's choices (and the words of the
+selection rule), written out in cli.py for that reason, must stay those of the library. And ArviZ's refactor notice, not about the user's
 result, never reaches the terminal (fitdf/_arviz.py).
 """
 
@@ -23,6 +23,7 @@ from fitdf import cli
 from fitdf.chains import chain_names
 from fitdf.inference.api import DEFAULT_CHAIN
 from fitdf.inference.ranking import METHOD_CHOICES, RANK_COLUMNS
+from fitdf.inference.selection import ROWS_RULE
 from fitdf.params import DIMENSIONLESS
 
 HEAVY = ("numpy", "scipy", "pandas", "matplotlib", "numba", "lmfit", "emcee", "arviz", "control")
@@ -123,6 +124,7 @@ def test_parser_choices_are_the_librarys():
     assert cli.DEFAULT_CHAIN == DEFAULT_CHAIN
     assert tuple(cli.METHOD_CHOICES) == tuple(METHOD_CHOICES)
     assert tuple(cli.RANK_CHOICES) == tuple(RANK_COLUMNS)
+    assert cli.ROWS_RULE == ROWS_RULE
 
 
 def test_largest_seed_is_numpys():

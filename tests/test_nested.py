@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import nautilus
 import numpy as np
 import pytest
 from scipy.special import ndtr
@@ -18,12 +19,15 @@ from scipy.stats import kstest, norm, truncnorm
 
 import fitdf
 from fitdf.errors import OptionError
+from fitdf.inference import nested
 from fitdf.inference.nested import (
     MAX_LOG_EVIDENCE_ERROR,
     MIN_EFFECTIVE,
     PriorTransform,
+    convergence_warnings,
     is_converged,
     kish_size,
+    next_effective_target,
     run_nautilus,
     systematic_resample,
     weighted_quantiles,
@@ -159,6 +163,97 @@ def test_weights_effective_size_quantiles_and_resampling():
     assert is_converged(MIN_EFFECTIVE, MAX_LOG_EVIDENCE_ERROR)
     assert not is_converged(MIN_EFFECTIVE - 1, 0.01) and not is_converged(1e4, 0.31)
     assert not is_converged(1e4, np.nan)
+
+
+# ------------------------------------------------------------------ the convergence rule's edges
+#: Just below 400 effective draws, just above an evidence error of 0.3 (the rule as stated in
+#: the documents and the command line's checks: >= 400 draws, error <= 0.3).
+BELOW_400 = np.nextafter(400.0, 0.0)
+ABOVE_03 = np.nextafter(0.3, 1.0)
+
+
+def test_convergence_rule_at_its_two_boundaries():
+    assert (MIN_EFFECTIVE, MAX_LOG_EVIDENCE_ERROR) == (400, 0.3)
+    assert is_converged(400, 0.3) and is_converged(400.0, 0.0)
+    assert not is_converged(BELOW_400, 0.0) and not is_converged(399, 0.3)
+    assert not is_converged(400, ABOVE_03) and not is_converged(1e6, ABOVE_03)
+    assert not is_converged(400, np.inf)
+
+
+def test_convergence_warnings_at_the_same_boundaries():
+    assert convergence_warnings(400, 0.3, True, 5000, 100_000) == []
+    assert convergence_warnings(BELOW_400, 0.3, True, 5000, 100_000) == [
+        "400 effective draws (< 400)"  # (399.99... printed to whole draws)
+    ]
+    assert convergence_warnings(400, ABOVE_03, True, 5000, 100_000) == [
+        "log-evidence error 0.30 (> 0.3)"
+    ]
+    assert convergence_warnings(400, np.nan, True, 5000, 100_000) == [
+        "log-evidence error nan (> 0.3)"
+    ]
+    assert convergence_warnings(1e3, 0.1, False, 100_000, 100_000) == [
+        "stopped at 100000 likelihood evaluations (max_evaluations 100000)"
+    ]
+
+
+class ScriptedSampler:
+    """A stand-in for ``nautilus.Sampler``: each ``run`` reaches the asked effective draws
+    (or ``n_eff_short`` of them), costs 1000 evaluations and finishes unless told."""
+
+    n_eff_short: list = []
+    unfinished_at: int | None = None
+
+    def __init__(self, *args, **kwargs):
+        self.n_like, self.n_eff, self.calls = 0, 0.0, 0
+
+    def run(self, f_live, n_eff, n_like_max, discard_exploration):
+        short = self.n_eff_short[self.calls] if self.calls < len(self.n_eff_short) else None
+        self.n_eff = float(short if short is not None else n_eff)
+        self.n_like += 1000
+        self.calls += 1
+        return self.calls != self.unfinished_at
+
+
+def run_scripted(monkeypatch, errors, n_eff_short=(), unfinished_at=None):
+    """:func:`run_nautilus` on :class:`ScriptedSampler` with the evidence error of round
+    ``i`` taken from ``errors[i]``; returns its rounds and whether it finished."""
+    sampler = type(
+        "S",
+        (ScriptedSampler,),
+        {"n_eff_short": list(n_eff_short), "unfinished_at": unfinished_at},
+    )
+    monkeypatch.setattr(nautilus, "Sampler", sampler)
+    monkeypatch.setattr(nested, "log_evidence_error", lambda s: errors[s.calls - 1])
+    _, error, rounds, finished = run_nautilus(None, None, 3)
+    return rounds, finished
+
+
+def test_stop_rule_stops_at_an_evidence_error_of_0_3_and_goes_on_above(monkeypatch):
+    rounds, finished = run_scripted(monkeypatch, [0.3])
+    assert finished and len(rounds) == 1 and rounds[0]["n_eff_target"] == 400
+    # a hair above 0.3: another round, for 1.5 times the draws (1.2 (error / 0.3)^2 < 1.5)
+    rounds, finished = run_scripted(monkeypatch, [ABOVE_03, 0.25])
+    assert finished and [r["n_eff_target"] for r in rounds] == [400, 600]
+    assert [r["log_evidence_error"] for r in rounds] == [ABOVE_03, 0.25]
+    # twice 0.3: 1.2 * 4 = 4.8 times the draws, then stopped
+    rounds, _ = run_scripted(monkeypatch, [0.6, 0.2])
+    assert [r["n_eff_target"] for r in rounds] == [400, pytest.approx(1920)]
+
+
+def test_stop_rule_needs_400_effective_draws_too(monkeypatch):
+    rounds, finished = run_scripted(monkeypatch, [0.1, 0.1], n_eff_short=[BELOW_400])
+    assert finished and len(rounds) == 2 and rounds[1]["n_eff_target"] == 1.5 * BELOW_400
+
+
+def test_stop_rule_ends_a_run_stopped_by_its_evaluations(monkeypatch):
+    rounds, finished = run_scripted(monkeypatch, [0.9, 0.9], unfinished_at=1)
+    assert not finished and len(rounds) == 1
+
+
+def test_next_target_grows_as_the_error_asks():
+    assert next_effective_target(400, 0.3) == 600  # at least 1.5 times
+    assert next_effective_target(400, 0.6) == pytest.approx(400 * 1.2 * 4)
+    assert next_effective_target(1000, 0.3 * np.sqrt(1.25)) == pytest.approx(1500)
 
 
 # ------------------------------------------------------------------------ known evidences

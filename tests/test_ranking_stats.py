@@ -226,9 +226,10 @@ def test_ranking_order_rank_column_and_best_by_aicc():
         stand_in("c", 11.0, rms=0.02),  # same RMS as a: the lower AICc goes first
         stand_in("d", 10.0, rms=0.05),  # same AICc as b, later: best_by_aicc keeps b
     ]
-    t = ranking_table(results)
+    t = ranking_table(results, rank_by="rms_complex")
     assert list(t["model"]) == ["c", "a", "b", "d"] and list(t["rank"]) == [1, 2, 3, 4]
-    assert list(ranking_table(results, rank_by="aicc")["model"]) == ["b", "d", "c", "a"]
+    # by default the selection rule's order: AICc, the first of equals first
+    assert list(ranking_table(results)["model"]) == ["b", "d", "c", "a"]
     assert best_by_aicc(results).model == "b"
     assert list(t.columns[:4]) == ["rank", "model", "chain", "method"]
     assert (t["n_params"] == 3).all() and (t["n_points"] == 20).all()
@@ -286,25 +287,28 @@ def test_table_columns_and_empty_mcmc_columns_are_float_nan():
 
 
 def test_aicc_overturns_the_rms_order_for_many_parameters_on_few_points():
-    # 6 rows = 12 weighted residuals. The 7-parameter model fits a little better (chi2 11 vs 12,
+    # 6 rows = 12 weighted residuals. The 6-parameter model fits a little better (chi2 11 vs 12,
     # RMS 4 % lower) than the 2-parameter one.
     simple = fitted("simple", np.full(6, 1 + 1j), k=2)  # chi2 = 6 * 2 = 12
-    rich = fitted("rich", np.full(6, math.sqrt(11 / 12) * (1 + 1j)), k=7)  # chi2 = 11
+    rich = fitted("rich", np.full(6, math.sqrt(11 / 12) * (1 + 1j)), k=6)  # chi2 = 11
     # AICc(simple) = 12 ln(12/12) + 4 + 2*2*3/9 = 5.333333
-    # AICc(rich)   = 12 ln(11/12) + 14 + 2*7*8/4 = -1.044137 + 14 + 28 = 40.955863
+    # AICc(rich)   = 12 ln(11/12) + 12 + 2*6*7/5 = -1.044137 + 12 + 16.8 = 27.755863
     assert simple.metrics["aicc"] == pytest.approx(4 + 12 / 9, abs=1e-12)
-    assert rich.metrics["aicc"] == pytest.approx(12 * math.log(11 / 12) + 14 + 28, rel=1e-12)
-    assert rich.metrics["aicc"] == pytest.approx(40.955863, abs=1e-6)
+    assert rich.metrics["aicc"] == pytest.approx(12 * math.log(11 / 12) + 12 + 16.8, rel=1e-12)
+    assert rich.metrics["aicc"] == pytest.approx(27.755863, abs=1e-6)
     assert rich.metrics["rms_complex"] == pytest.approx(0.01 * math.sqrt(2 * 11 / 12))
     assert rich.metrics["rms_complex"] < simple.metrics["rms_complex"]
-    by_rms = ranking_table([simple, rich])
+    by_rms = ranking_table([simple, rich], rank_by="rms_complex")
     assert list(by_rms["model"]) == ["rich", "simple"]
-    by_aicc = ranking_table([simple, rich], rank_by="aicc")
+    by_aicc = ranking_table([simple, rich])  # the default order
     assert list(by_aicc["model"]) == ["simple", "rich"]
     t = by_model(by_aicc)
-    assert t.loc["rich", "delta_aicc"] == pytest.approx(40.955863 - 5.333333, abs=1e-5)
-    assert t.loc["simple", "aicc_weight"] > 0.999999
+    assert t.loc["rich", "delta_aicc"] == pytest.approx(27.755863 - 5.333333, abs=1e-5)
+    assert t.loc["simple", "aicc_weight"] == pytest.approx(0.9999865, abs=1e-7)
     assert t.loc["simple", "indistinguishable_from"] == ""
+    # eleven parameters on the six rows' twelve numbers: not ranked (AICc needs k + 2)
+    richer = fitted("richer", np.full(6, 0.1 * (1 + 1j)), k=11)
+    assert list(ranking_table([simple, richer])["model"]) == ["simple"]
 
 
 def test_aicc_keeps_the_rms_order_when_the_extra_parameters_pay():

@@ -3,8 +3,8 @@
 The fitter predicts with the laws' closed-form (or fast) describing functions and the
 chain's vectorised solver. The data here come from the numerical referee
 (:func:`fitdf.describing.numerical_describing_function`, a Fourier integral of the loop)
-and a scalar root finder written in this file (:func:`scipy.optimize.brentq` on
-``I |R + Z(I)| = V``), with noise at the tables' printed precision (DF to 3 decimals,
+and a scalar root finder (:func:`scipy.optimize.brentq` on ``I |R + Z(I)| = V``), both in
+``tests/referee.py``, with noise at the tables' printed precision (DF to 3 decimals,
 phase to 0.1 degree, after Gaussian noise of 0.005 and 0.5 degree). A sign or factor
 error in the closed forms, the chain or the current solver shows up as a truth outside
 the reported intervals (99.9 % for one noise draw; the 95 % coverage over many draws is
@@ -16,11 +16,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from scipy.optimize import brentq
+from referee import referee_row
 
 import fitdf
-from fitdf.describing import numerical_describing_function
-from fitdf.models import get_model
 
 AMPLITUDES = np.array([0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0])
 FREQUENCIES = (3.0, 6.0, 10.0)
@@ -32,53 +30,14 @@ TRUTH = {
 }
 
 
-#: Samples per period of the referee's Fourier integral: within 4e-5 of the DF and 0.007
-#: degree of 2**16 samples on every row made here (the worst: Rayleigh near saturation at
-#: 60 ohm), far below the noise (0.005, 0.5 degree) and the printed precision (0.001, 0.1
-#: degree). (2**14 was as good for the test and 30 times slower with multithreaded BLAS.)
-REFEREE_POINTS = 2**13
-
-
-def referee_winding_df(model, theta, V, f, R, gain, n_points=REFEREE_POINTS):
-    """``gain Z / (R + Z)`` at the current solving ``I |R + Z(I)| = V``, point by point."""
-    law = get_model(model)
-
-    def Z(current):
-        N = numerical_describing_function(
-            law.ascending_branch, current, f, n_points=n_points, **theta
-        )
-        return 2j * np.pi * f * complex(N)
-
-    def residual(log_i):
-        i = np.exp(log_i)
-        return np.log(i * abs(R + Z(i))) - np.log(V)
-
-    upper = np.log(V / R)  # a passive winding only adds impedance: I <= V / R
-    lower = upper - 40.0
-    log_i = brentq(residual, lower, upper, xtol=1e-13)
-    z = Z(np.exp(log_i))
-    return gain * z / (R + z)
-
-
 def referee_frame(model, theta, seed, source_impedances=(0.0, 600.0)):
     rng = np.random.default_rng(seed)
-    rows = []
-    for rs in source_impedances:
-        for f in FREQUENCIES:
-            for v in AMPLITUDES:
-                d = referee_winding_df(model, theta, v, f, rs + CHAIN["r_series"], CHAIN["gain"])
-                mag = abs(d) + 0.005 * rng.standard_normal()
-                phase = np.angle(d, deg=True) + 0.5 * rng.standard_normal()
-                rows.append(
-                    {
-                        "table": "referee",
-                        "source_impedance_ohm": rs,
-                        "frequency_hz": f,
-                        "input_v": v,
-                        "df_reported": round(max(mag, 0.0), 3),
-                        "phase_lead_deg": round(phase, 1),
-                    }
-                )
+    rows = [
+        referee_row(model, theta, CHAIN, v, f, rs, rng)
+        for rs in source_impedances
+        for f in FREQUENCIES
+        for v in AMPLITUDES
+    ]
     return pd.DataFrame(rows)
 
 

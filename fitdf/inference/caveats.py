@@ -16,9 +16,40 @@ from fitdf.params import DIMENSIONLESS
 __all__ = [
     "bound_warnings",
     "identifiability_warnings",
+    "undetermined_parameters",
     "posterior_bound_warnings",
     "noise_bound_warnings",
 ]
+
+
+def _bound_side(spec, value, rel=1e-3) -> str | None:
+    """The side ("lower" or "upper") whose bound the internal ``value`` is within ``rel`` of
+    the box's width from, else None."""
+    lo, hi = spec.internal_bounds
+    tol = rel * (hi - lo)
+    return "lower" if value - lo < tol else "upper" if hi - value < tol else None
+
+
+def _too_wide(spec, interval: dict, decades: float) -> bool:
+    """A 68 % interval over ``decades`` wide (log) or half its box (linear): undetermined."""
+    lo, hi = interval.get("p16", np.nan), interval.get("p84", np.nan)
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        return False
+    return bool(
+        (spec.log and lo > 0 and np.log10(hi / lo) > decades)
+        or (not spec.log and hi - lo >= 0.5 * (spec.bounds[1] - spec.bounds[0]))
+    )
+
+
+def undetermined_parameters(problem: FitProblem, intervals: dict, x, decades=1.0) -> list[str]:
+    """The fitted parameters the data do not determine: on a bound of the box at ``x``
+    (internal, :func:`bound_warnings`) or with too wide an interval
+    (:func:`identifiability_warnings`), in the problem's order."""
+    return [
+        s.name
+        for i, s in enumerate(problem.specs)
+        if _bound_side(s, x[i]) is not None or _too_wide(s, intervals.get(s.name, {}), decades)
+    ]
 
 
 def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
@@ -26,9 +57,7 @@ def bound_warnings(problem: FitProblem, x, rel=1e-3) -> list[str]:
     data, sets its value (and the other parameters are conditional on it)."""
     out = []
     for i, s in enumerate(problem.specs):
-        lo, hi = s.internal_bounds
-        tol = rel * (hi - lo)
-        side = "lower" if x[i] - lo < tol else "upper" if hi - x[i] < tol else None
+        side = _bound_side(s, x[i], rel)
         if side is None:
             continue
         bound = s.bounds[0] if side == "lower" else s.bounds[1]
@@ -61,12 +90,7 @@ def identifiability_warnings(
     for s in problem.specs:
         iv = intervals.get(s.name, {})
         lo, hi = iv.get("p16", np.nan), iv.get("p84", np.nan)
-        if not (np.isfinite(lo) and np.isfinite(hi)):
-            continue
-        wide = (s.log and lo > 0 and np.log10(hi / lo) > decades) or (
-            not s.log and hi - lo >= 0.5 * (s.bounds[1] - s.bounds[0])
-        )
-        if wide:
+        if _too_wide(s, iv, decades):
             held = " (held by its prior)" if s.name in problem.priors else ""
             out.append(
                 f"the data do not determine {s.name}: 68% interval {lo:.3g}..{hi:.3g}"

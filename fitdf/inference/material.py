@@ -46,7 +46,9 @@ import numpy as np
 from fitdf._json import clean
 from fitdf.data.cores import CoreGeometry, appendix_a_ranges
 from fitdf.errors import ModelError, OptionError
+from fitdf.inference.caveats import undetermined_parameters
 from fitdf.inference.problem import series_resistance_prior
+from fitdf.params import PER_TABLE, parameter_base
 
 __all__ = [
     "MaterialConstants",
@@ -564,6 +566,10 @@ def material_record(result) -> dict | None:
     :meth:`MaterialConstants.to_dict`, the ``implied_stacking_factor``
     (:func:`implied_stacking_factor`, None without Appendix A ranges); the check says what
     the data determine, with ``joint`` when the rows span two source impedances.
+    ``undetermined`` names the fitted parameters the constants rest on that the data do not
+    determine (:func:`~fitdf.inference.caveats.undetermined_parameters`; the calibration
+    gains, which no constant uses, left out), and ``caveat`` says so in a sentence (None when
+    there are none).
     """
     problem = result.problem
     geometry = problem.geometry
@@ -586,6 +592,11 @@ def material_record(result) -> dict | None:
         ranges = None
     joint = np.unique(np.asarray(data.source_impedance, float)).size > 1
     implied = None if ranges is None else implied_stacking_factor(constants, ranges)
+    loose = [
+        name
+        for name in undetermined_parameters(problem, result.intervals, result.internal)
+        if parameter_base(name) not in PER_TABLE
+    ]
     return clean(
         {
             "core": data.core,
@@ -593,7 +604,21 @@ def material_record(result) -> dict | None:
             "appendix_a_check": None
             if ranges is None
             else appendix_a_check(constants, ranges, joint=joint),
+            "undetermined": loose,
+            "caveat": _caveat(loose),
         }
+    )
+
+
+def _caveat(loose) -> str | None:
+    """The sentence for constants computed from parameters the data leave open."""
+    if not loose:
+        return None
+    which = ", ".join(loose)
+    return (
+        f"the data do not determine {which} (on a bound, or a 68 % interval over a decade "
+        f"wide): the constants computed from {'it' if len(loose) == 1 else 'them'} are as "
+        "open"
     )
 
 

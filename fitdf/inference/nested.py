@@ -98,6 +98,8 @@ __all__ = [
     "NestedLikelihood",
     "log_evidence_error",
     "is_converged",
+    "convergence_warnings",
+    "next_effective_target",
     "kish_size",
     "weighted_quantiles",
     "systematic_resample",
@@ -293,6 +295,32 @@ def is_converged(n_effective, log_evidence_error_) -> bool:
     )
 
 
+def next_effective_target(n_effective, log_evidence_error_) -> float:
+    """The next round's target of effective draws: the evidence's error falls as
+    ``1 / sqrt(n_eff)``, so what :data:`MAX_LOG_EVIDENCE_ERROR` needs with a margin of 1.2,
+    and at least 1.5 times the draws so far."""
+    ratio = log_evidence_error_ / MAX_LOG_EVIDENCE_ERROR
+    return float(n_effective) * max(1.5, 1.2 * ratio**2)
+
+
+def convergence_warnings(
+    n_effective, log_evidence_error_, finished, n_evaluations, max_evaluations
+) -> list[str]:
+    """What keeps a run from converging (:func:`is_converged`), one warning each: stopped at
+    ``max_evaluations``, fewer than :data:`MIN_EFFECTIVE` effective draws, an evidence error
+    above :data:`MAX_LOG_EVIDENCE_ERROR` (or none)."""
+    out = []
+    if not finished:
+        out.append(
+            f"stopped at {n_evaluations} likelihood evaluations (max_evaluations {max_evaluations})"
+        )
+    if n_effective < MIN_EFFECTIVE:
+        out.append(f"{n_effective:.0f} effective draws (< {MIN_EFFECTIVE})")
+    if not log_evidence_error_ <= MAX_LOG_EVIDENCE_ERROR:
+        out.append(f"log-evidence error {log_evidence_error_:.2f} (> {MAX_LOG_EVIDENCE_ERROR})")
+    return out
+
+
 def weighted_quantiles(x, weights, q) -> np.ndarray:
     """Quantiles ``q`` (fractions) of ``x`` ``(n,)`` under normalised ``weights``: the inverse
     of the weighted distribution function through the midpoints of the sorted weights."""
@@ -393,8 +421,7 @@ def run_nautilus(
         )
         if not finished or is_converged(sampler.n_eff, error):
             return sampler, error, rounds, bool(finished)
-        # the error falls as 1 / sqrt(n_eff): ask for what 0.3 needs, with a margin
-        target = float(sampler.n_eff) * max(1.5, 1.2 * (error / MAX_LOG_EVIDENCE_ERROR) ** 2)
+        target = next_effective_target(sampler.n_eff, error)
 
 
 def fit_nested(
@@ -551,15 +578,7 @@ def fit_nested(
         }
     )
 
-    warns = []
-    if not finished:
-        warns.append(
-            f"stopped at {ns.n_like} likelihood evaluations (max_evaluations {max_evaluations})"
-        )
-    if n_eff < MIN_EFFECTIVE:
-        warns.append(f"{n_eff:.0f} effective draws (< {MIN_EFFECTIVE})")
-    if not error <= MAX_LOG_EVIDENCE_ERROR:
-        warns.append(f"log-evidence error {error:.2f} (> {MAX_LOG_EVIDENCE_ERROR})")
+    warns = convergence_warnings(n_eff, error, finished, ns.n_like, max_evaluations)
     if diag["n_pareto_k_bad"]:
         warns.append(
             f"PSIS-LOO: {diag['n_pareto_k_bad']} rows with Pareto k > 0.7 (LOO unreliable there)"

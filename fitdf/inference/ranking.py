@@ -5,7 +5,9 @@ Ranking
     complex / magnitude / phase residuals, reduced chi-square, AICc, BIC (see
     :mod:`fitdf.inference.metrics`), PSIS-LOO and WAIC for MCMC fits, and a cross-validated RMS
     complex residual (leave one frequency out, fit the rest by least squares, predict
-    it). Default order: RMS complex residual. Two models are called *indistinguishable*
+    it). Default order: AICc, the criterion of the rule that calls a law best
+    (:mod:`fitdf.inference.selection`: a law is ranked when AICc is defined on its rows,
+    ``2 n >= k + 2``, and the lowest AICc is best). Two models are called *indistinguishable*
     when their AICc differ by less than 2 (least squares) or their elpd_loo difference is
     smaller than twice its standard error ``dse`` (MCMC: :func:`arviz.compare` on the pair;
     identical pointwise elpd counts as a tie).
@@ -28,11 +30,22 @@ import xarray as xr
 
 from fitdf._arviz import arviz
 from fitdf.chains import get_chain
-from fitdf.errors import OptionError
+from fitdf.errors import DataError, OptionError
 from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data, resolve_geometry
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.metrics import residual_metrics
 from fitdf.inference.problem import FitProblem, series_resistance_prior
+from fitdf.inference.selection import (
+    TIE_TWO_LN_B,
+    aicc_tie,
+    best_result,
+    evidence_tie,
+    loo_tie,
+    not_ranked_record,
+    rank_reason,
+    select,
+    too_few_rows_message,
+)
 from fitdf.models import get_model, model_names
 from fitdf.params import PER_TABLE, current_scaled, parameter_base
 
@@ -43,6 +56,7 @@ __all__ = [
     "fit_all",
     "ranking_table",
     "best_by_aicc",
+    "rankable_laws",
     "cross_validate",
     "cross_impedance",
     "RANK_COLUMNS",
@@ -77,7 +91,11 @@ POSTERIOR_METHODS = ("mcmc", "nested")
 
 #: Kass and Raftery (J. Am. Stat. Assoc. 90 (1995) 773) on ``2 ln B``: the evidence a Bayes
 #: factor ``B`` gives for the better model, by its upper bounds.
-_KASS_RAFTERY = ((2.0, "not worth more than a bare mention"), (6.0, "positive"), (10.0, "strong"))
+_KASS_RAFTERY = (
+    (TIE_TWO_LN_B, "not worth more than a bare mention"),
+    (6.0, "positive"),
+    (10.0, "strong"),
+)
 
 
 def bayes_factor_scale(log_bayes_factor: float) -> str:
@@ -90,8 +108,27 @@ def bayes_factor_scale(log_bayes_factor: float) -> str:
 
 
 def best_by_aicc(results):
-    """The result with the lowest AICc (the first of equals)."""
-    return min(results, key=lambda r: r.metrics["aicc"])
+    """The best of ``results`` by the selection rule:
+    :func:`fitdf.inference.selection.best_result` (the name kept for its callers)."""
+    return best_result(results)
+
+
+def rankable_laws(data, models=None, chains=(DEFAULT_CHAIN,), fixed=None, geometry="auto"):
+    """The ``(model, chain)`` pairs the rows of ``data`` can rank, and the others' records
+    (:func:`~fitdf.inference.selection.not_ranked_record`), before any fit: the parameter
+    count is that of the fit's problem (per-table gains, chain parameters, ``fixed``)."""
+    fd = resolve_data(data)
+    geo = resolve_geometry(geometry, fd)
+    ok, out = [], []
+    for model in list(models or model_names()):
+        for chain in chains:
+            k = FitProblem(fd, model, chain, None, fixed, geo).ndim
+            record = not_ranked_record(model, chain, fd.n, k)
+            if record is None:
+                ok.append((model, chain))
+            else:
+                out.append(record)
+    return ok, out
 
 
 def _fit_job(fd, model, chain, method, seed, kw, cross_validation=False):
@@ -120,13 +157,25 @@ def fit_all(
     ``{key: (function, args)}`` such as :meth:`fitdf.executor.Executor.run` (worker
     processes or a Dask cluster; the same numbers as in this process).
     """
-    return _fit_jobs(data, models, chains, methods, seed, progress, runner, False, kw)
+    return _fit_jobs(data, models, chains, methods, seed, progress, runner, False, kw)[0]
 
 
-def _fit_jobs(data, models, chains, methods, seed, progress, runner, cross_validation, kw):
+def _fit_jobs(
+    data, models, chains, methods, seed, progress, runner, cross_validation, kw, rankable=False
+):
+    """``(results, not_ranked)``: with ``rankable`` (:func:`compare_fits`) only the laws the
+    rows can rank are fitted and the others listed (a DataError when none is left);
+    :func:`fit_all` fits every law."""
     models = list(models or model_names())
     fd = resolve_data(data, kw.pop("policy", "default"), kw.pop("source_impedance", None))
-    combos = [(m, c, k) for m in models for c in chains for k in methods]
+    pairs, not_ranked = [(m, c) for m in models for c in chains], []
+    if rankable:
+        pairs, not_ranked = rankable_laws(
+            fd, models, chains, kw.get("fixed"), kw.get("geometry", "auto")
+        )
+        if not pairs:
+            raise DataError(too_few_rows_message(fd.label, fd.n, not_ranked))
+    combos = [(m, c, k) for m, c in pairs for k in methods]
     # keyed by position too: a model may be listed twice (and must then be fitted twice)
     jobs = {
         (i, *combo): (_fit_job, (fd, *combo, seed, kw, cross_validation))
@@ -134,7 +183,7 @@ def _fit_jobs(data, models, chains, methods, seed, progress, runner, cross_valid
     }
     desc = "fitting and cross-validating" if cross_validation else "fitting"
     done = _run_jobs(jobs, runner, desc, {key: key[1] for key in jobs}, progress)
-    return list(done.values())
+    return list(done.values()), not_ranked
 
 
 def _run_jobs(jobs: dict, runner, desc: str, models: dict, progress=None) -> dict:
@@ -207,10 +256,30 @@ def cross_validate(result, seed=0, n_starts=None) -> dict:
     }
 
 
-def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None) -> pd.DataFrame:
-    """The ranking of fitted results (all fitted to the same rows)."""
+def ranking_table(results, rank_by: str = "aicc", cv: dict | None = None) -> pd.DataFrame:
+    """The ranking of fitted results (all fitted to the same rows), ordered by ``rank_by``
+    (default AICc, the selection rule's criterion; the first of equals first).
+
+    Results whose rows cannot rank them (:func:`~fitdf.inference.selection.rank_reason`)
+    are left out (a DataError when none is left); ``cv`` maps a result's
+    position in ``results`` to its :func:`cross_validate` record.
+    """
     if rank_by not in RANK_COLUMNS:
         raise OptionError(f"cannot rank by {rank_by!r}; choose one of {', '.join(RANK_COLUMNS)}")
+    keep = [
+        i
+        for i, r in enumerate(results)
+        if rank_reason(r.metrics["n_points"], r.metrics["n_params"]) is None
+    ]
+    if results and not keep:
+        m = results[0].metrics
+        records = [
+            not_ranked_record(r.model, r.chain, r.metrics["n_points"], r.metrics["n_params"])
+            for r in results
+        ]
+        raise DataError(too_few_rows_message(results[0].label, m["n_points"], records))
+    cv = {keep.index(i): c for i, c in (cv or {}).items() if i in keep}
+    results = [results[i] for i in keep]
     rows = []
     for i, r in enumerate(results):
         m = r.metrics
@@ -234,7 +303,7 @@ def ranking_table(results, rank_by: str = "rms_complex", cv: dict | None = None)
             "log_evidence_error": getattr(r, "diagnostics", {}).get("log_evidence_error", np.nan),
             "warnings": len(r.warnings),
         }
-        if cv is not None and i in cv:
+        if i in cv:
             row["cv_rms_complex"] = cv[i]["cv_rms_complex"]
         rows.append(row)
     table = pd.DataFrame(rows)
@@ -326,7 +395,7 @@ def _loo_tie(a, b) -> bool:
     if a is None or b is None or a["loo_i"].size != b["loo_i"].size:
         return False
     row = arviz().compare({0: a, 1: b}, ic="loo", method="stacking", scale="log").iloc[1]
-    return bool(abs(row["elpd_diff"]) < 2 * row["dse"] or row["elpd_diff"] == 0)
+    return loo_tie(row["elpd_diff"], row["dse"])
 
 
 def _ties(results, table) -> list[str]:
@@ -341,8 +410,7 @@ def _ties(results, table) -> list[str]:
                 continue
             if r.method == "nested" and np.isfinite(table.loc[i, "log_evidence"]):
                 # by the evidence: a Bayes factor not worth more than a bare mention
-                d = abs(table.loc[i, "log_evidence"] - table.loc[j, "log_evidence"])
-                if 2.0 * d < _KASS_RAFTERY[0][0]:
+                if evidence_tie(table.loc[i, "log_evidence"], table.loc[j, "log_evidence"]):
                     ties.append(f"{s.model}/{s.chain}")
             elif r.method in POSTERIOR_METHODS:
                 pair = (min(i, j), max(i, j))
@@ -350,7 +418,7 @@ def _ties(results, table) -> list[str]:
                     loo_ties[pair] = _loo_tie(elpd[i], elpd[j])
                 if loo_ties[pair]:
                     ties.append(f"{s.model}/{s.chain}")
-            elif abs(table.loc[i, "aicc"] - table.loc[j, "aicc"]) < 2:
+            elif aicc_tie(table.loc[i, "aicc"], table.loc[j, "aicc"]):
                 ties.append(f"{s.model}/{s.chain}")
         out.append(", ".join(ties))
     return out
@@ -358,15 +426,23 @@ def _ties(results, table) -> list[str]:
 
 @dataclass(frozen=True)
 class Comparison:
-    """Fitted results and their ranking (:func:`compare_fits`)."""
+    """Fitted results, their ranking (:func:`compare_fits`) and the laws the rows could not
+    rank (``not_ranked``: :func:`~fitdf.inference.selection.not_ranked_record`)."""
 
     table: pd.DataFrame
     results: tuple
+    not_ranked: tuple = ()
+
+    @property
+    def selection(self):
+        """The selection rule on the ranking (:func:`fitdf.inference.selection.select`)."""
+        return select(self.table.to_dict(orient="records"), self.not_ranked)
 
     @property
     def best(self):
-        """The result ranked first."""
-        key = tuple(self.table.iloc[0][["model", "chain", "method"]])
+        """The result the selection rule calls best (whatever order the table is in)."""
+        b = self.selection.best
+        key = (b["model"], b["chain"], b["method"])
         return next(r for r in self.results if (r.model, r.chain, r.method) == key)
 
 
@@ -376,13 +452,14 @@ def compare_fits(
     chains=(DEFAULT_CHAIN,),
     method="lsq",
     seed=0,
-    rank_by="rms_complex",
+    rank_by="aicc",
     cross_validation=True,
     progress=None,
     runner=None,
     **kw,
 ) -> Comparison:
-    """Fit every model (:func:`fit_all`), cross-validate the least-squares fits, rank them.
+    """Fit every model the rows can rank (:func:`rankable_laws`), cross-validate the
+    least-squares fits, rank them; a DataError if the rows can rank no law.
 
     ``method`` is a key of :data:`METHOD_CHOICES`: "lsq", "mcmc" (emcee), "nested" (nested
     sampling: the posterior and the evidence) or "both" (least squares and nested sampling);
@@ -392,12 +469,14 @@ def compare_fits(
     methods = METHOD_CHOICES.get(method)
     if methods is None:
         raise OptionError(f"unknown method {method!r}; choose {', '.join(METHOD_CHOICES)}")
-    done = _fit_jobs(data, models, chains, methods, seed, progress, runner, cross_validation, kw)
+    done, not_ranked = _fit_jobs(
+        data, models, chains, methods, seed, progress, runner, cross_validation, kw, True
+    )
     if not cross_validation:
-        return Comparison(ranking_table(done, rank_by, None), tuple(done))
+        return Comparison(ranking_table(done, rank_by, None), tuple(done), tuple(not_ranked))
     results = [r for r, _ in done]
     cv = {i: folds for i, (_, folds) in enumerate(done) if folds is not None}
-    return Comparison(ranking_table(results, rank_by, cv), tuple(results))
+    return Comparison(ranking_table(results, rank_by, cv), tuple(results), tuple(not_ranked))
 
 
 def compare(
@@ -406,7 +485,7 @@ def compare(
     chains=(DEFAULT_CHAIN,),
     method="lsq",
     seed=0,
-    rank_by="rms_complex",
+    rank_by="aicc",
     cross_validation=True,
     progress=None,
     **kw,

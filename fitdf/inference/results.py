@@ -225,6 +225,8 @@ class FitResult:
         out = {"material": self.material["constants"]}
         if self.material.get("appendix_a_check") is not None:
             out["appendix_a_check"] = self.material["appendix_a_check"]
+        if self.material.get("caveat"):
+            out["material_caveat"] = self.material["caveat"]
         return out
 
 

@@ -484,7 +484,10 @@ def _block_blocks(rec, names):
         IMG(f["loci"], f"critical loci on {rec['key']}"),
         P(LOCI_CAPTION),
         H(3, "Ranking"),
-        P("Least squares, ordered by RMS complex residual |fit - measured|:"),
+        P(
+            "Least squares, ordered by AICc (the first row is the best law); rms_complex is the "
+            "RMS of |fit - measured|:"
+        ),
         _records_table(_named(rec["ranking_lsq"], names, "model"), RANK_COLS),
     ]
     if rec["ranking_mcmc"]:

@@ -11,14 +11,24 @@ criterion's fields of a ranking (lists of one column, in the ranking's order):
   smaller than :data:`LOO_TIE_SE` times its standard error ``elpd_loo_dse``, or zero.
 * **cross-validation**: the lowest ``cv_rms_complex``.
 
-These are the rules of :mod:`fitdf.inference.ranking` (``indistinguishable_from``), read
-back from the records. The report's "best law", named without a criterion, is
-:func:`best_law`: the lowest AICc.
+These are the rules of :mod:`fitdf.inference.selection` (its thresholds and tie tests),
+read back from the records. The report's "best law", named without a criterion, is
+:func:`best_law`: the lowest AICc among the laws ranked (the selection rule; a ranking in
+``results.json`` holds only the laws its rows can rank).
 """
 
 from __future__ import annotations
 
 import math
+
+from fitdf.inference.selection import (
+    TIE_AICC,
+    TIE_LOO_SE,
+    TIE_TWO_LN_B,
+    aicc_tie,
+    evidence_tie,
+    loo_tie,
+)
 
 __all__ = [
     "AICC_TIE",
@@ -33,11 +43,11 @@ __all__ = [
 ]
 
 #: AICc differences below this are ties (least squares).
-AICC_TIE = 2.0
+AICC_TIE = TIE_AICC
 #: ``2 ln B`` below this is "not worth more than a bare mention" (Kass and Raftery 1995).
-BARE_MENTION = 2.0
+BARE_MENTION = TIE_TWO_LN_B
 #: An elpd difference below this many of its standard errors is a tie (LOO-IC).
-LOO_TIE_SE = 2.0
+LOO_TIE_SE = TIE_LOO_SE
 
 
 def known(values) -> list:
@@ -74,7 +84,7 @@ def aicc_ties(models, aicc) -> list[tuple]:
     return [
         (models[i], aicc[i] - low)
         for i in known(aicc)
-        if models[i] != best and aicc[i] - low < AICC_TIE
+        if models[i] != best and aicc_tie(aicc[i], low)
     ]
 
 
@@ -88,7 +98,7 @@ def evidence_ties(models, log_evidence) -> list[tuple]:
     return [
         (models[i], 2.0 * (top - log_evidence[i]))
         for i in known(log_evidence)
-        if models[i] != best and 2.0 * (top - log_evidence[i]) < BARE_MENTION
+        if models[i] != best and evidence_tie(log_evidence[i], top)
     ]
 
 
@@ -102,6 +112,6 @@ def loo_ties(models, looic, elpd_diff, elpd_dse) -> list[tuple]:
     out = []
     for i in known(elpd_diff):
         se = elpd_dse[i] if i < len(elpd_dse) and elpd_dse[i] is not None else 0.0
-        if models[i] != best and (abs(elpd_diff[i]) < LOO_TIE_SE * se or elpd_diff[i] == 0):
+        if models[i] != best and loo_tie(elpd_diff[i], se):
             out.append((models[i], elpd_diff[i], se))
     return out

@@ -20,7 +20,8 @@ from fitdf._json import clean
 from fitdf.data import audit, datasets
 from fitdf.inference.api import resolve_data
 from fitdf.inference.problem import FitProblem
-from fitdf.inference.ranking import best_by_aicc, ranking_table
+from fitdf.inference.ranking import ranking_table
+from fitdf.inference.selection import best_result, select
 from fitdf.inference.small_signal import small_signal_scan, verdict
 from fitdf.models import get_model
 from fitdf.plots import (
@@ -70,12 +71,13 @@ def expected_cost(data: str, model: str) -> float:
 
 
 def aicc_winners(lsq: dict, models, keys) -> list[str]:
-    """The lowest-AICc model of each block in ``keys`` (blocks not fitted are skipped)."""
+    """The best model of each block in ``keys`` by the selection rule (the lowest AICc:
+    :func:`fitdf.inference.selection.best_result`); blocks not fitted are skipped."""
     out = set()
     for k in keys:
         fits = [lsq[(k, m)] for m in models if (k, m) in lsq]
         if fits:
-            out.add(best_by_aicc(fits).model)
+            out.add(best_result(fits).model)
     return sorted(out)
 
 
@@ -255,7 +257,7 @@ def _posterior_rank(results) -> str:
     return "log_evidence" if all(r.method == "nested" for r in results) else "looic"
 
 
-def _ranking(results, cv=None, rank_by="rms_complex") -> list[dict]:
+def _ranking(results, cv=None, rank_by="aicc") -> list[dict]:
     cv_idx = {i: cv[r.model] for i, r in enumerate(results) if cv and r.model in cv}
     table = ranking_table(results, rank_by=rank_by, cv=cv_idx or None)
     return table.to_dict(orient="records")
@@ -329,6 +331,8 @@ def block_record(
     }
     rec["order_lsq"] = [row["model"] for row in rec["ranking_lsq"]]
     rec["order_mcmc"] = [row["model"] for row in rec["ranking_mcmc"]]
+    # the best law, its ties, and what cross-validation, the evidence and LOO pick
+    rec["selection"] = select(rec["ranking_lsq"] + rec["ranking_mcmc"]).to_dict()
     return clean(rec)
 
 
@@ -368,7 +372,7 @@ def _prediction_gap(result, chain) -> dict:
 def chain_comparison(exact_ranked, approx_results, top=3) -> dict | None:
     """The exact chain against an approximate one on one block (JSON-ready), or None.
 
-    ``order_*`` are the two rankings (RMS complex residual); for the ``top`` models of the
+    ``order_*`` are the two rankings (by AICc); for the ``top`` models of the
     exact ranking, ``best`` gives both residuals, how far the approximate chain's DF is
     from the exact one at the exact fit's parameters (the approximation's own error), and
     the fitted material constants on each chain.

@@ -1,0 +1,62 @@
+"""Measured describing functions made by a code path independent of the fitter (a helper).
+
+The fitter predicts with the laws' closed-form (or fast) describing functions and the
+chain's vectorised solver. :func:`referee_winding_df` computes the same measurement from the
+law's definition alone: the numerical referee
+(:func:`fitdf.describing.numerical_describing_function`, a Fourier integral of the loop traced
+by the law's ascending branch) and a scalar root finder written here
+(:func:`scipy.optimize.brentq` on ``I |R + Z(I)| = V``, the ``winding`` chain's circuit).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import brentq
+
+from fitdf.describing import numerical_describing_function
+from fitdf.models import get_model
+
+#: Samples per period of the referee's Fourier integral: within 4e-5 of the DF and 0.007
+#: degree of 2**16 samples on every row of tests/test_recovery_independent.py (the worst:
+#: Rayleigh near saturation at 60 ohm), far below the noise (0.005, 0.5 degree) and the
+#: printed precision (0.001, 0.1 degree). (2**14 was as good for the test and 30 times
+#: slower with multithreaded BLAS.)
+REFEREE_POINTS = 2**13
+
+
+def referee_winding_df(model, theta, V, f, R, gain, n_points=REFEREE_POINTS):
+    """``gain Z / (R + Z)`` at the current solving ``I |R + Z(I)| = V``, point by point."""
+    law = get_model(model)
+
+    def Z(current):
+        N = numerical_describing_function(
+            law.ascending_branch, current, f, n_points=n_points, **theta
+        )
+        return 2j * np.pi * f * complex(N)
+
+    def residual(log_i):
+        i = np.exp(log_i)
+        return np.log(i * abs(R + Z(i))) - np.log(V)
+
+    upper = np.log(V / R)  # a passive winding only adds impedance: I <= V / R
+    lower = upper - 40.0
+    log_i = brentq(residual, lower, upper, xtol=1e-13)
+    z = Z(np.exp(log_i))
+    return gain * z / (R + z)
+
+
+def referee_row(model, theta, chain, V, f, rs, rng, sigma=(0.005, 0.5), decimals=(3, 1)):
+    """One row in the Appendix B schema: the referee's DF at ``V`` volts, ``f`` Hz and ``rs``
+    ohm of source impedance (``chain``: ``r_series`` and ``gain``), with Gaussian noise of
+    ``sigma`` (magnitude, phase in degrees) and rounded to ``decimals`` (magnitude, phase)."""
+    d = referee_winding_df(model, theta, V, f, rs + chain["r_series"], chain["gain"])
+    mag = abs(d) + sigma[0] * rng.standard_normal()
+    phase = np.angle(d, deg=True) + sigma[1] * rng.standard_normal()
+    return {
+        "table": "referee",
+        "source_impedance_ohm": rs,
+        "frequency_hz": f,
+        "input_v": V,
+        "df_reported": round(max(mag, 0.0), decimals[0]),
+        "phase_lead_deg": round(phase, decimals[1]),
+    }
