@@ -30,13 +30,13 @@ from fitdf.thesis.summary import (
 )
 
 # ------------------------------------------------------------------ a synthetic comparison
-#: Two cores, two impedances each; gains; the gain that died out; measured A = a K^0.6 and
+#: Two cores, two impedances each; gains; the gains that died out; measured A = a K^0.6 and
 #: omega = w K^0.25, each with a fixed wobble (the rows' scatter).
 SPEC = {
-    "B.1": ("permalloy", 0.0, [100.0, 200.0, 400.0, 800.0], 50.0, 0.05, 3.0),
-    "B.3": ("permalloy", 600.0, [400.0, 800.0, 1600.0, 3200.0], 200.0, 0.02, 2.5),
-    "B.2": ("deltamax", 0.0, [100.0, 200.0, 400.0, 800.0], 50.0, 0.04, 3.5),
-    "B.5": ("deltamax", 600.0, [200.0, 400.0, 800.0, 1600.0], 100.0, 0.03, 2.0),
+    "B.1": ("permalloy", 0.0, [100.0, 200.0, 400.0, 800.0], [25.0, 50.0], 0.05, 3.0),
+    "B.3": ("permalloy", 600.0, [400.0, 800.0, 1600.0, 3200.0], [200.0], 0.02, 2.5),
+    "B.2": ("deltamax", 0.0, [100.0, 200.0, 400.0, 800.0], [50.0], 0.04, 3.5),
+    "B.5": ("deltamax", 600.0, [200.0, 400.0, 800.0, 1600.0], [100.0], 0.03, 2.0),
 }
 WOBBLE = np.array([0.02, -0.015, 0.01, -0.02])
 #: Per setting and block: (amplitude factor, omega factor, amplitude exponent, critical gain).
@@ -49,7 +49,7 @@ PREDICTION = {
     },
     "held_out": {
         "B.1": (1.0, 1.0, 0.6, 40.0),
-        "B.3": (2.0, 1.05, 0.45, 150.0),
+        "B.3": (2.0, 1.05, 0.45, 250.0),
         "B.2": (0.9, 0.95, 0.6, 60.0),
         "B.5": (0.8, 1.1, 0.6, 120.0),
     },
@@ -64,9 +64,9 @@ def synthetic_comparison() -> pd.DataFrame:
         for table, (core, rs, gains, dead, a, w) in SPEC.items():
             fa, fw, pa, crit = per[table]
             kref = math.sqrt(gains[0] * gains[-1])  # predicted over measured is fa here
-            for i, K in enumerate([dead] + gains):
-                dies = i == 0
-                wob = 1.0 + (0.0 if dies else WOBBLE[i - 1])
+            for i, K in enumerate(dead + gains):
+                dies = i < len(dead)
+                wob = 1.0 + (0.0 if dies else WOBBLE[i - len(dead)])
                 A, W = a * K**0.6 * wob, w * K**0.25 / wob
                 Ap = fa * a * K**pa * kref ** (0.6 - pa)
                 Wp = fw * w * K**0.25
@@ -186,6 +186,26 @@ def test_trend_verdict_flips_at_the_interval_edge(frame, side):
     assert got["consistent"] is (side < 0)
 
 
+def test_trends_compare_the_rows_that_have_a_prediction(frame):
+    """A row without a predicted cycle leaves the trend of its block measured and predicted on
+    the other rows (both exponents on the same rows); below three rows there is no verdict."""
+    df = frame.copy()
+    b3 = (df["setting"] == "unscaled") & (df["table"] == "B.3")
+    df.loc[b3 & (df["system_gain"] == 400.0), ["amplitude_pred", "omega_pred"]] = np.nan
+    got = summarise(df)["trends"]["unscaled"]["B.3"]
+    live = _oscillating(df, "unscaled", "B.3")
+    live = live[np.isfinite(live["amplitude_pred"])]
+    x = np.log(live["system_gain"].to_numpy())
+    assert got["rows"] == 3
+    assert got["amplitude"]["measured_slope"] == pytest.approx(
+        stats.linregress(x, np.log(live["amplitude_v"].to_numpy())).slope, rel=1e-12
+    )
+    assert got["amplitude"]["predicted_slope"] == pytest.approx(0.45, rel=1e-9)
+    df.loc[b3 & (df["system_gain"] == 800.0), ["amplitude_pred", "omega_pred"]] = np.nan
+    two = summarise(df)["trends"]["unscaled"]["B.3"]
+    assert two["rows"] == 2 and two["amplitude"]["consistent"] is None
+
+
 def test_critical_position_at_the_bracket_ends():
     assert _position(50.0, 50.0, 100.0) == "inside"
     assert _position(50.0 * (1 - 1e-12), 50.0, 100.0) == "below"
@@ -223,20 +243,23 @@ def test_summaries_recomputed_from_the_rows(frame, attrs):
         )
     for c in attrs["critical_gains"]:
         core, rs, gains, dead, *_ = SPEC[c["table"]]
-        assert (c["measured_dies_out_at"], c["measured_lowest_oscillating"]) == (dead, gains[0])
+        assert c["measured_dies_out_at"] == max(dead)
+        assert c["measured_lowest_oscillating"] == gains[0]
         for setting, per in PREDICTION.items():
             p = c["predicted"][setting]
             crit = per[c["table"]][3]
             assert p["critical_gain"] == crit
-            assert p["position"] == ("below" if crit < dead else "inside")
-            assert p["die_out_over_predicted"] == pytest.approx(dead / crit)
+            assert p["position"] == ("below" if crit < max(dead) else "inside")
+            assert p["die_out_over_predicted"] == pytest.approx(max(dead) / crit)
     # pairs: gains both impedances of a core oscillated at
     common = sorted(set(SPEC["B.1"][2]) & set(SPEC["B.3"][2])) + sorted(
         set(SPEC["B.2"][2]) & set(SPEC["B.5"][2])
     )
     assert [p["system_gain"] for p in attrs["impedance_order"]["unscaled"]["rows"]] == common
+    assert [(d["table"], d["system_gain"]) for d in attrs["dies_out_rows"]] == [
+        (t, k) for t, spec in SPEC.items() for k in spec[3]
+    ]
     for d in attrs["dies_out_rows"]:
-        assert d["system_gain"] == SPEC[d["table"]][3]
         assert d["settings"]["unscaled"]["predicted_to_oscillate"] is True
 
 
@@ -352,9 +375,17 @@ def test_order_and_critical_sentences(attrs):
         f"{'; '.join(ranges)})."
     )
     cg, dead = attrs["critical_gains"], attrs["dies_out_rows"]
-    below = {
-        st: sum(c["predicted"][st]["position"] == "below" for c in cg)
+    counts = {
+        st: [
+            sum(c["predicted"][st]["position"] == p for c in cg)
+            for p in ("below", "inside", "above")
+        ]
         for st in ("unscaled", "held_out")
+    }
+    where = {
+        st: f"below the measured die-out bracket in {b}, inside it in {i} and above it in {a} of "
+        "the 4 blocks"
+        for st, (b, i, a) in counts.items()
     }
     detail = "; ".join(
         f"{c['table']} {c['predicted']['unscaled']['critical_gain']:.0f} against "
@@ -366,15 +397,17 @@ def test_order_and_critical_sentences(attrs):
         for st in ("unscaled", "held_out")
     }
     assert s["critical"] == (
-        "The predicted critical gain (below it harmonic balance finds no cycle) lies below the "
-        "measured bracket (largest gain that died out, smallest that oscillated) in "
-        f"{below['unscaled']} of 4 blocks unscaled and {below['held_out']} of 4 blocks held out "
-        f"(unscaled: {detail}); harmonic balance predicts an oscillation at "
-        f"{osc['unscaled']} unscaled and {osc['held_out']} held out of the {len(dead)} rows "
-        'marked "oscillations die out".'
+        "The predicted critical gain (below it harmonic balance finds no cycle) against the "
+        "measured bracket (the largest gain at which the oscillations died out, the smallest at "
+        f"which they did not): unscaled, {where['unscaled']} ({detail}); held out, "
+        f"{where['held_out']}. Harmonic balance predicts an oscillation at {osc['unscaled']} "
+        f"(unscaled) and {osc['held_out']} (held out) of the {len(dead)} rows marked "
+        '"oscillations die out".'
     )
-    # B.2 at 50 (the gain that died out: inside) and B.5 at 150 (inside 100-200)
-    assert below == {"unscaled": 2, "held_out": 2}
+    below = {st: c[0] for st, c in counts.items()}
+    # unscaled: B.2 at 50 (the gain that died out: inside) and B.5 at 150 (inside 100-200);
+    # held out: B.3 at 250 inside 200-400 too
+    assert below == {"unscaled": 2, "held_out": 1}
 
 
 def test_time_domain_sentences(attrs):
@@ -384,19 +417,19 @@ def test_time_domain_sentences(attrs):
         a = attrs["time_domain"][setting]["all"]
         states = [d["settings"][setting]["sim_state"] for d in dead]
         # synthetic: B.2's die-out row has not settled, the others oscillate
-        assert states.count("unsettled") == 1 and states.count("oscillates") == 3
+        assert states.count("unsettled") == 1 and states.count("oscillates") == 4
         assert s[f"time_domain_{setting}"] == (
-            f"Simulated in time with the same fitted cores ({word}), the loop settles to a cycle "
-            f"at {a['rows_compared']} of the {a['rows_oscillating']} rows measured oscillating; "
-            "there harmonic balance is within "
+            f"Simulated in time with the same fitted cores ({word}), the loop settles to the "
+            f"cycle harmonic balance predicts at {a['rows_compared']} of the "
+            f"{a['rows_oscillating']} rows measured oscillating; there harmonic balance is within "
             f"{a['rms_log_amplitude_hb_over_sim']:.3f} (amplitude) and "
             f"{a['rms_log_omega_hb_over_sim']:.3f} (frequency) RMS log ratio of the simulation "
             "-- the describing-function approximation -- while the simulation differs from the "
             f"table by {a['rms_log_amplitude_sim_over_measured']:.2f} and "
             f"{a['rms_log_omega_sim_over_measured']:.2f} -- the law, the loop's assumptions and "
-            "the scales. The simulated loop oscillates at 3 of the 4 rows marked "
+            "the scales. The simulated loop oscillates at 4 of the 5 rows marked "
             '"oscillations die out" and has not settled at 1 (harmonic balance predicts an '
-            "oscillation at 4)."
+            "oscillation at 5)."
         )
 
 
@@ -405,10 +438,32 @@ def test_time_domain_verdict_when_simulation_and_balance_agree(frame):
     df.loc[df["sim_state"] == "unsettled", "sim_state"] = "oscillates"
     s = limit_cycle_statements(record(df))
     assert s["time_domain_unscaled"].endswith(
-        'The simulated loop oscillates at 4 of the 4 rows marked "oscillations die out": '
+        'The simulated loop oscillates at 5 of the 5 rows marked "oscillations die out": '
         "harmonic balance and the simulation agree there, so the describing-function "
         "approximation does not explain those rows."
     )
+
+
+def test_time_domain_verdict_is_row_by_row(frame):
+    """Equal counts are not agreement: the simulation must oscillate at the very rows where
+    harmonic balance predicts a cycle."""
+    df = frame.copy()
+    df.loc[df["sim_state"] == "unsettled", "sim_state"] = "oscillates"
+    un = df["setting"] == "unscaled"
+    b2 = un & df["dies_out"] & (df["table"] == "B.2")  # no cycle predicted, the loop oscillates
+    b1 = un & df["dies_out"] & (df["table"] == "B.1") & (df["system_gain"] == 25.0)
+    df.loc[b2, "amplitude_pred"] = np.nan
+    df.loc[b1, "sim_state"] = "dies out"  # a cycle predicted, the loop dies out
+    s = limit_cycle_statements(record(df))["time_domain_unscaled"]
+    assert s.endswith(
+        'The simulated loop oscillates at 4 of the 5 rows marked "oscillations die out" and has '
+        "not settled at 0 (harmonic balance predicts an oscillation at 4)."
+    )
+    # nor is a row that has not settled, even where no cycle is predicted
+    df = frame.copy()
+    df.loc[un & df["dies_out"] & (df["table"] == "B.2"), "amplitude_pred"] = np.nan
+    s = limit_cycle_statements(record(df))["time_domain_unscaled"]
+    assert s.endswith("and has not settled at 1 (harmonic balance predicts an oscillation at 4).")
 
 
 def test_confirmed_and_not_confirmed(attrs, frame):
@@ -429,7 +484,7 @@ def test_confirmed_and_not_confirmed(attrs, frame):
     df = frame.copy()
     for t in SPEC:
         sel = (df["setting"] == "unscaled") & (df["table"] == t)
-        df.loc[sel, "critical_gain_pred"] = SPEC[t][3] * (1.5 if t != "B.1" else 0.5)
+        df.loc[sel, "critical_gain_pred"] = max(SPEC[t][3]) * (1.5 if t != "B.1" else 0.5)
     three = limit_cycle_statements(record(df))
     assert "inside the measured brackets (it holds in 3 of 4 blocks)" in three["not_confirmed"]
     df.loc[(df["setting"] == "unscaled") & (df["table"] == "B.1"), "critical_gain_pred"] = 60.0
@@ -444,17 +499,19 @@ def test_finding_sentence(attrs):
     s = limit_cycle_statements(attrs)
     u, h = attrs["agreement"]["unscaled"]["all"], attrs["agreement"]["held_out"]["all"]
     cg, dead = attrs["critical_gains"], attrs["dies_out_rows"]
-    below = sum(c["predicted"]["unscaled"]["position"] == "below" for c in cg)
+    pos = [c["predicted"]["unscaled"]["position"] for c in cg]
     osc = sum(d["settings"]["unscaled"]["predicted_to_oscillate"] for d in dead)
     assert s["finding"] == (
         "Limit cycles (Tables 5.1, 5.2): unscaled, harmonic balance puts the frequency at "
         f"{u['median_omega_ratio']:.2f} and the amplitude at {u['median_amplitude_ratio']:.2f} "
         f"of the measured (medians over {u['rows_predicted']} rows); with the scales fitted to "
         f"three blocks and used on the fourth, at {h['median_omega_ratio']:.2f} and "
-        f"{h['median_amplitude_ratio']:.2f}; the predicted critical gain lies below the "
-        f"measured die-out bracket in {below} of 4 blocks, and {osc} of the {len(dead)} rows marked "
+        f"{h['median_amplitude_ratio']:.2f}; the unscaled critical gain lies below the measured "
+        f"die-out bracket in {pos.count('below')}, inside it in {pos.count('inside')} and above "
+        f"it in {pos.count('above')} of the 4 blocks, and {osc} of the {len(dead)} rows marked "
         '"oscillations die out" are predicted to oscillate.'
     )
+    assert pos == ["below", "below", "inside", "inside"]
 
 
 # ------------------------------------------------------------------ scales held out

@@ -201,10 +201,15 @@ def limit_blocks(res) -> list:
     if lc.get("error"):
         return out + [P(f"The limit-cycle comparison failed in this run: `{lc['error']}`.")]
     attrs = lc.get("attrs") or {}
+    if "statements" not in attrs:  # a record made before the comparison had settings
+        return out + [
+            P(
+                "This record of the comparison predates its unscaled and held-out settings "
+                "(its scales were fitted to the rows it was judged on); regenerate the report."
+            )
+        ]
     out.append(P(_intro(lc, res)))
-    statements = attrs.get("statements") or {}
-    if statements:
-        out.append(UL([v for k, v in statements.items() if k != "finding"]))
+    out.append(UL([v for k, v in attrs["statements"].items() if k != "finding"]))
     if lc.get("figure"):
         out.append(IMG(lc["figure"], "limit cycles, predicted against measured"))
     rows = lc.get("rows") or []

@@ -45,15 +45,12 @@ from fitdf.thesis.statements import limit_cycle_statements
 
 __all__ = [
     "thesis_limit_cycle_comparison",
-    "SETTINGS",
     "SIM_PERIODS",
     "SIM_STEPS_PER_PERIOD",
     "SIM_DRIFT_TOL",
     "OMEGA_RANGE",
 ]
 
-#: The settings in the order they are computed and reported.
-SETTINGS = ("unscaled", "held_out", "given")
 #: Periods of the slowest start frequency each simulated block runs; the last 40 % of the
 #: record are measured. Started on the predicted cycle (``initial_omega``), the report's loops
 #: (Preisach, B.5 and B.2, both settings) measure the same cycles at 25, 40 and 80 periods to
@@ -140,8 +137,9 @@ def _predict_block(block, fit_, N, alpha, beta, amplitude_range):
 
 def _simulate_block(block, fit_, rs, critical_omega):
     """The loop in time at every row of one block and setting (one batch), each member started
-    on the plant's sinusoidal state of the predicted cycle (else the measured amplitude at the
-    critical point's frequency); ``sim_state`` is ``oscillates`` (settled within
+    on the sinusoid of its predicted cycle (``simulate_loop(initial_omega=...)``); a row
+    without one starts at its measured amplitude (else 1 V) and the critical point's
+    frequency (else the measured one). ``sim_state`` is ``oscillates`` (settled within
     :data:`SIM_DRIFT_TOL`), ``dies out`` or ``unsettled``."""
     alpha, beta = float(block["alpha"].iloc[0]), float(block["beta"].iloc[0])
     a0 = block["amplitude_pred"].fillna(block["amplitude_v"]).fillna(1.0).to_numpy(float)

@@ -147,44 +147,55 @@ def _order(io) -> str:
     )
 
 
+def _positions(cg, setting) -> str:
+    """``below the measured bracket in k, inside it in i and above it in a of the n blocks``."""
+    pos = [c["predicted"][setting]["position"] for c in cg]
+    return (
+        f"below the measured die-out bracket in {pos.count('below')}, inside it in "
+        f"{pos.count('inside')} and above it in {pos.count('above')} of the {len(cg)} blocks"
+    )
+
+
 def _critical(cg, dead) -> str:
     settings = [s for s in ("unscaled", "held_out") if s in cg[0]["predicted"]]
-    below = []
-    for s in settings:
-        k = sum(c["predicted"][s]["position"] == "below" for c in cg)
-        below.append(f"{k} of {len(cg)} blocks {SETTING_WORDS[s]}")
     detail = "; ".join(
         f"{c['table']} {_num(c['predicted']['unscaled']['critical_gain'], '.0f')} against "
         f"{_num(c['measured_dies_out_at'], '.0f')}-{_num(c['measured_lowest_oscillating'], '.0f')}"
         for c in cg
     )
+    where = [f"{SETTING_WORDS[s]}, {_positions(cg, s)}" for s in settings]
+    where[0] += f" ({detail})"
     osc = [
-        f"{sum(d['settings'][s]['predicted_to_oscillate'] for d in dead)} {SETTING_WORDS[s]}"
+        f"{sum(d['settings'][s]['predicted_to_oscillate'] for d in dead)} ({SETTING_WORDS[s]})"
         for s in settings
     ]
     return (
-        "The predicted critical gain (below it harmonic balance finds no cycle) lies below the "
-        "measured bracket (largest gain that died out, smallest that oscillated) in "
-        f"{' and '.join(below)} (unscaled: {detail}); harmonic balance predicts an oscillation "
-        f'at {" and ".join(osc)} of the {len(dead)} rows marked "oscillations die out".'
+        "The predicted critical gain (below it harmonic balance finds no cycle) against the "
+        "measured bracket (the largest gain at which the oscillations died out, the smallest "
+        f"at which they did not): {'; '.join(where)}. Harmonic balance predicts an "
+        f'oscillation at {" and ".join(osc)} of the {len(dead)} rows marked "oscillations die '
+        'out".'
     )
 
 
 def _time_domain(td, dead, setting) -> str:
     a = td[setting]["all"]
-    h = sum(d["settings"][setting]["predicted_to_oscillate"] for d in dead)
-    sims = [d["settings"][setting]["sim_state"] for d in dead]
+    rows = [d["settings"][setting] for d in dead]
+    h = sum(r["predicted_to_oscillate"] for r in rows)
+    sims = [r["sim_state"] for r in rows]
     s, u = sims.count("oscillates"), sims.count("unsettled")
+    # row by row: the simulation oscillates exactly where harmonic balance predicts a cycle
+    agree = all((r["sim_state"] == "oscillates") == r["predicted_to_oscillate"] for r in rows)
     verdict = (
         ": harmonic balance and the simulation agree there, so the describing-function "
         "approximation does not explain those rows"
-        if s == h and u == 0
+        if agree and u == 0
         else f" and has not settled at {u} (harmonic balance predicts an oscillation at {h})"
     )
     return (
         f"Simulated in time with the same fitted cores ({SETTING_WORDS[setting]}), the loop "
-        f"settles to a cycle at {a['rows_compared']} of the {a['rows_oscillating']} rows "
-        "measured oscillating; there harmonic balance is within "
+        f"settles to the cycle harmonic balance predicts at {a['rows_compared']} of the "
+        f"{a['rows_oscillating']} rows measured oscillating; there harmonic balance is within "
         f"{_num(a['rms_log_amplitude_hb_over_sim'], '.3f')} (amplitude) and "
         f"{_num(a['rms_log_omega_hb_over_sim'], '.3f')} (frequency) RMS log ratio of the "
         "simulation -- the describing-function approximation -- while the simulation differs "
@@ -254,7 +265,6 @@ def _verdicts(attrs) -> tuple[str, str]:
 
 def _finding(ag, cg, dead) -> str:
     u, h = ag["unscaled"]["all"], ag.get("held_out", {}).get("all")
-    below = sum(c["predicted"]["unscaled"]["position"] == "below" for c in cg)
     osc = sum(d["settings"]["unscaled"]["predicted_to_oscillate"] for d in dead)
     held = (
         f"; with the scales fitted to three blocks and used on the fourth, at "
@@ -266,8 +276,8 @@ def _finding(ag, cg, dead) -> str:
         "Limit cycles (Tables 5.1, 5.2): unscaled, harmonic balance puts the frequency at "
         f"{_num(u['median_omega_ratio'])} and the amplitude at "
         f"{_num(u['median_amplitude_ratio'])} of the measured (medians over "
-        f"{u['rows_predicted']} rows){held}; the predicted critical gain lies below the "
-        f"measured die-out bracket in {below} of {len(cg)} blocks, and {osc} of the "
+        f"{u['rows_predicted']} rows){held}; the unscaled critical gain lies "
+        f"{_positions(cg, 'unscaled')}, and {osc} of the "
         f'{len(dead)} rows marked "oscillations die out" are predicted to oscillate.'
     )
 

@@ -123,18 +123,19 @@ def agreement(df) -> dict:
 
 def trends(df) -> dict:
     """Per setting and block: the exponent of amplitude and of frequency in the system gain,
-    measured (with its interval) and predicted on the same rows, and whether they agree."""
+    measured (with its interval) and predicted, both on the block's oscillating rows that have
+    a predicted cycle (``rows``), and whether they agree (None below three rows)."""
     out = {}
     for setting, groups in _blocks(df):
         out[setting] = {}
         for name, g in groups[1:]:
             live = _oscillating(g)
+            live = live[np.isfinite(live["amplitude_pred"]) & np.isfinite(live["omega_pred"])]
             rec = {"rows": len(live)}
             lk = np.log(live["system_gain"].to_numpy(float))
             for q, meas, pred, _ in QUANTITIES:
                 m = slope_interval(lk, np.log(live[meas].to_numpy(float)))
-                p = live[pred].to_numpy(float)
-                ps = slope_interval(lk, np.log(p))["slope"] if np.isfinite(p).all() else np.nan
+                ps = slope_interval(lk, np.log(live[pred].to_numpy(float)))["slope"]
                 rec[q] = {
                     "measured_slope": m["slope"],
                     "measured_slope_interval": _nan_list(m["interval"]),
