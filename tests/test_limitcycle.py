@@ -703,6 +703,23 @@ def test_thesis_comparison_uses_the_fits_it_is_given(monkeypatch):
         assert set(df.loc[df["table"] == t, "model"]) == {best.model}
     aicc = [r.metrics["aicc"] for r in candidates["B.1"]]
     assert abs(aicc[0] - aicc[1]) > 1.0  # the choice on B.1 is a real one
+    # scales given: a third setting at those scales (the one not given is 1), the same as
+    # harmonic balance called directly with them
+    given = thesis_limit_cycle_comparison(candidates=candidates, time_scale=2.0)
+    assert list(dict.fromkeys(given["setting"])) == ["unscaled", "held_out", "given"]
+    g = given[(given["setting"] == "given") & (given["table"] == "B.2")]
+    assert (g["alpha"] == 2.0).all() and (g["beta"] == 1.0).all()
+    assert given.attrs["scales"]["given"] == {"alpha": 2.0, "beta": 1.0}
+    direct = limit_cycles(
+        THESIS_PLANT,
+        candidates["B.2"][0],
+        g["system_gain"].to_numpy(),
+        amplitude_range=(0.01, 20.0),
+        omega_range=(0.03, 300.0),
+        time_scale=2.0,
+    ).stable_cycles()
+    np.testing.assert_allclose(g["omega_pred"], direct["omega_rad_s"], rtol=1e-6)
+    assert given.attrs["critical_gains"][0]["predicted"]["given"]["critical_gain"] > 0
 
 
 def test_fitted_limit_cycles_need_an_impedance_when_the_data_have_two():

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.patches import Rectangle
-from matplotlib.ticker import FormatStrFormatter
+from matplotlib.ticker import FormatStrFormatter, LogLocator
 
 from fitdf.plots._figure import new_figure
 
@@ -355,7 +355,8 @@ def plot_thesis_comparison(df):
         for ax in axes[:, j]:
             ax.set_xscale("log")
             ax.set_yscale("log")
-            for axis in (ax.xaxis, ax.yaxis):  # plain numbers, not powers of ten
+            for axis in (ax.xaxis, ax.yaxis):  # plain numbers at 1, 2, 5 x 10^k
+                axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
                 axis.set_major_formatter(FormatStrFormatter("%g"))
                 axis.set_minor_formatter(FormatStrFormatter(""))
         # one legend per column, under it: the entries of both rows (a row may lack some)
