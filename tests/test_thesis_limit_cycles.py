@@ -89,7 +89,7 @@ def synthetic_comparison() -> pd.DataFrame:
                         "omega_ratio": Wp / W,
                         "n_stable": 1,
                         "critical_gain_pred": crit,
-                        "extrapolated": False,
+                        "extrapolated": setting == "unscaled" and K >= 800.0,
                         "sim_state": "unsettled" if dies and table == "B.2" else "oscillates",
                         "amplitude_sim": Ap * 1.02,
                         "omega_sim": Wp * 0.99,
@@ -224,6 +224,8 @@ def test_summaries_recomputed_from_the_rows(frame, attrs):
             ra = np.log(live["amplitude_pred"] / live["amplitude_v"]).to_numpy()
             rw = np.log(live["omega_pred"] / live["omega_rad_s"]).to_numpy()
             assert ag["rows_oscillating"] == ag["rows_predicted"] == len(SPEC[table][2])
+            far = [k for k in SPEC[table][2] if k >= 800.0] if setting == "unscaled" else []
+            assert ag["rows_extrapolated"] == len(far)
             assert ag["median_amplitude_ratio"] == pytest.approx(np.exp(np.median(ra)), rel=1e-12)
             assert ag["median_omega_ratio"] == pytest.approx(np.exp(np.median(rw)), rel=1e-12)
             assert ag["rms_log_omega_ratio"] == pytest.approx(np.sqrt(np.mean(rw**2)), rel=1e-12)
@@ -235,6 +237,9 @@ def test_summaries_recomputed_from_the_rows(frame, attrs):
             td = attrs["time_domain"][setting][table]
             assert td["rms_log_amplitude_hb_over_sim"] == pytest.approx(np.log(1.02), rel=1e-9)
             assert td["rms_log_omega_hb_over_sim"] == pytest.approx(-np.log(0.99), rel=1e-9)
+        assert attrs["agreement"][setting]["all"]["rows_extrapolated"] == sum(
+            attrs["agreement"][setting][t]["rows_extrapolated"] for t in SPEC
+        )
         # all rows: the median over every oscillating row of the setting
         live = _oscillating(frame, setting)
         all_ratio = np.exp(np.median(np.log(live["amplitude_pred"] / live["amplitude_v"])))
@@ -297,7 +302,8 @@ def test_unscaled_and_held_out_sentences(attrs):
         f"amplitude at {u['median_amplitude_ratio']:.2f} (per block "
         f"{_r(_per_block(attrs, 'unscaled', 'median_amplitude_ratio'))}), over the "
         f"{u['rows_predicted']} of {u['rows_oscillating']} rows measured oscillating that have a "
-        "predicted cycle."
+        f"predicted cycle; {u['rows_extrapolated']} of those cycles lie outside the amplitudes or "
+        "frequencies the fits saw."
     )
     h = attrs["agreement"]["held_out"]["all"]
     hs = SCALES["held_out"].values()
@@ -308,7 +314,9 @@ def test_unscaled_and_held_out_sentences(attrs):
         "the measured one (per block "
         f"{_r(_per_block(attrs, 'held_out', 'median_omega_ratio'))}) and the amplitude at "
         f"{h['median_amplitude_ratio']:.2f} (per block "
-        f"{_r(_per_block(attrs, 'held_out', 'median_amplitude_ratio'))})."
+        f"{_r(_per_block(attrs, 'held_out', 'median_amplitude_ratio'))}); "
+        f"{h['rows_extrapolated']} of the {h['rows_predicted']} predicted cycles lie outside the "
+        "amplitudes or frequencies the fits saw."
     )
     sp, j = SCALES["spread"], SCALES["joint"]
     assert s["scales"] == (

@@ -70,7 +70,8 @@ def _unscaled(ag) -> str:
         f"{_num(a['median_amplitude_ratio'])} (per block "
         f"{_range(b['median_amplitude_ratio'] for b in blocks)}), over the "
         f"{a['rows_predicted']} of {a['rows_oscillating']} rows measured oscillating that have "
-        "a predicted cycle."
+        f"a predicted cycle; {a['rows_extrapolated']} of those cycles lie outside the amplitudes "
+        "or frequencies the fits saw."
     )
 
 
@@ -98,7 +99,9 @@ def _held_out(ag, sc) -> str:
         f"{_num(a['median_omega_ratio'])} of the measured one (per block "
         f"{_range(b['median_omega_ratio'] for b in blocks)}) and the amplitude at "
         f"{_num(a['median_amplitude_ratio'])} (per block "
-        f"{_range(b['median_amplitude_ratio'] for b in blocks)})."
+        f"{_range(b['median_amplitude_ratio'] for b in blocks)}); {a['rows_extrapolated']} of "
+        f"the {a['rows_predicted']} predicted cycles lie outside the amplitudes or frequencies "
+        "the fits saw."
     )
 
 

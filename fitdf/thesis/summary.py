@@ -98,7 +98,8 @@ def agreement(df) -> dict:
     """Per setting, for all rows and per block: how the prediction's level compares.
 
     ``rows_oscillating`` (measured), ``rows_predicted`` (of those, with a stable predicted
-    cycle) and per quantity ``median_<q>_ratio``, ``rms_log_<q>_ratio``, ``mean_log_<q>_ratio``,
+    cycle), ``rows_extrapolated`` (of those, the cycle outside the amplitudes or frequencies
+    the fit saw) and per quantity ``median_<q>_ratio``, ``rms_log_<q>_ratio``, ``mean_log_<q>_ratio``,
     its interval ``log_<q>_ratio_interval`` and ``<q>_level_consistent`` (the interval holds 0;
     None where it cannot be formed).
     """
@@ -108,7 +109,11 @@ def agreement(df) -> dict:
         for name, g in groups:
             live = _oscillating(g)
             ok = live[np.isfinite(live["amplitude_pred"]) & np.isfinite(live["omega_pred"])]
-            rec = {"rows_oscillating": len(live), "rows_predicted": len(ok)}
+            rec = {
+                "rows_oscillating": len(live),
+                "rows_predicted": len(ok),
+                "rows_extrapolated": int(ok["extrapolated"].astype(bool).sum()),
+            }
             for q, meas, pred, _ in QUANTITIES:
                 r = np.log(ok[pred].to_numpy(float) / ok[meas].to_numpy(float))
                 mi = mean_interval(r)
