@@ -415,3 +415,14 @@ def test_switched_on_limit_cycle_section_shapes(report_results):
     ):
         base["limit_cycles"] = section
         assert (errors("results.schema.json", base) == []) is ok, section
+    # a record of the comparison by settings: its rows name their scales, its attrs carry the
+    # summaries its sentences are made from
+    lc = report_results["limit_cycles"]
+    assert lc["rows"][0]["setting"] == "unscaled" and lc["attrs"]["statements"]
+    for path in (
+        ("limit_cycles", "rows", 0, "alpha"),
+        ("limit_cycles", "attrs", "agreement"),
+        ("limit_cycles", "attrs", "critical_gains"),
+        ("limit_cycles", "attrs", "scales", "held_out"),
+    ):
+        assert errors("results.schema.json", _drop(report_results, path)), path

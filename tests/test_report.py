@@ -22,6 +22,7 @@ from fitdf.machine import machine_record, same_machine
 from fitdf.plots.summary import CAPTION, constant_rows, plot_summary, residual_grid
 from fitdf.report import costs
 from fitdf.report.build import BLOCKS, ReportSettings, generate_report
+from fitdf.thesis import limit_cycle_statements
 
 TESTS = Path(__file__).resolve().parent
 REPO = TESTS.parent
@@ -256,13 +257,14 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
     assert r["cross_impedance"][0]["rows"][0]["predict_rms_complex"] > 0
     lc = r["limit_cycles"]  # the real comparison (fitdf.thesis), on the tiny settings
     assert lc["available"] and "error" not in lc and lc["figure"]
-    assert len(lc["rows"]) == 38 and {row["table"] for row in lc["rows"]} == {
+    assert len(lc["rows"]) == 2 * 38 and {row["table"] for row in lc["rows"]} == {
         "B.1",
         "B.2",
         "B.3",
         "B.5",
     }
-    assert 0.1 < lc["attrs"]["alpha"] < 100
+    assert {row["setting"] for row in lc["rows"]} == {"unscaled", "held_out"}
+    assert all(0.1 < s["alpha"] < 100 for s in lc["attrs"]["scales"]["held_out"].values())
     assert r["findings"] and any("the best law by AICc is" in f for f in r["findings"])
     assert r["audit"]["tables"] and r["audit"]["findings"]
 
@@ -291,6 +293,29 @@ def test_markdown_sections(tiny_report, tiny_results):
     anchors = {render.slug(h) for h in re.findall(r"^#+ (.*)$", md, re.M)}
     for target in re.findall(r"\]\(#([^)]+)\)", md):
         assert target in anchors, target
+
+
+def test_limit_cycle_sentences_are_made_from_the_record(tiny_results, tiny_report):
+    """Every sentence of the limit-cycle section, recomputed from the fields of results.json,
+    is the one the record holds and the report prints; the findings carry its finding."""
+    lc = tiny_results["limit_cycles"]
+    statements = lc["attrs"]["statements"]
+    assert limit_cycle_statements(lc["attrs"]) == statements
+    assert {"finding", "unscaled", "held_out", "critical", "confirmed", "not_confirmed"} <= set(
+        statements
+    )
+    assert "time_domain_unscaled" in statements  # the report simulates the loop
+    # the unscaled medians, recomputed from the rows themselves
+    rows = [r for r in lc["rows"] if r["setting"] == "unscaled" and not r["dies_out"]]
+    rows = [r for r in rows if r["amplitude_v"] is not None and r["omega_rad_s"] is not None]
+    ratios = [r["omega_pred"] / r["omega_rad_s"] for r in rows if r["omega_pred"] is not None]
+    median = f"puts the frequency at {np.median(ratios):.2f} of the measured one"
+    assert median in statements["unscaled"]
+    assert statements["finding"] in tiny_results["findings"]
+    md = (tiny_report / "README.md").read_text()
+    for name, text in statements.items():
+        if name != "finding":
+            assert text in md, name
 
 
 def test_limit_cycle_section_switched_off_or_failing(monkeypatch, tmp_path):

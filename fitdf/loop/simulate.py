@@ -34,6 +34,7 @@ from fitdf.errors import OptionError
 from fitdf.loop.plant import as_loop_plant
 
 __all__ = [
+    "WARMUP_PERIODS",
     "TimeResponse",
     "simulate_loop",
     "measure_oscillation",
@@ -43,6 +44,11 @@ __all__ = [
 
 
 # ---------------------------------------------------------------- simulation
+#: Periods the element is driven open-loop before a loop started on a sinusoid
+#: (``initial_omega``) is closed: one to leave the state at rest, one on the steady loop.
+WARMUP_PERIODS = 2
+
+
 @dataclass(frozen=True)
 class TimeResponse:
     """Recorded signals, shape ``(batch, n)``; ``error`` is the element's input (= -output)."""
@@ -77,6 +83,7 @@ def simulate_loop(
     t_end: float,
     dt: float,
     initial_output=0.1,
+    initial_omega=None,
     time_scale: float = 1.0,
     record_every: int = 1,
 ) -> TimeResponse:
@@ -93,7 +100,17 @@ def simulate_loop(
     t_end, dt : float
         Duration and fixed step (s).
     initial_output : float or array_like
-        Plant output at ``t = 0`` (minimum-norm state), per batch member or shared.
+        Plant output at ``t = 0``, per batch member or shared.
+    initial_omega : float or array_like, optional
+        None: the plant starts in the minimum-norm state with that output and the element
+        at rest. A frequency (rad/s, per member or shared): the loop starts on the sinusoid
+        ``y = initial_output cos(initial_omega t)`` -- the plant in its steady state for it
+        (``G(j omega)`` finite and nonzero), the element after :data:`WARMUP_PERIODS` periods
+        (of the slowest member) driven by the matching error ``-y`` -- so a loop started on a
+        predicted cycle settles in a few periods. Started from rest instead, a fitted core
+        follows the loop of amplitude zero until its current first turns (thesis IV.1's
+        slowly varying amplitude does not hold at a step) and the loop may collapse and grow
+        back over tens of periods.
     time_scale : float
         Simulate ``G(s / time_scale)``.
     record_every : int
@@ -113,11 +130,20 @@ def simulate_loop(
     Ad, Bd, C = _discretise(lp, gains, dt)
     B = gains.size
     y0 = np.broadcast_to(np.asarray(initial_output, float), (B,))
-    x = np.einsum("bij,bj->bi", np.linalg.pinv(C[:, None, :]), y0[:, None])  # y(0) = y0
+    if initial_omega is None:
+        x = np.einsum("bij,bj->bi", np.linalg.pinv(C[:, None, :]), y0[:, None])  # y(0) = y0
+    else:
+        w0 = np.broadcast_to(np.asarray(initial_omega, float), (B,))
+        x = _sinusoidal_state(lp, gains, y0, w0)
     runner = element.start(B, dt)
+    e_prev = None
+    if initial_omega is not None:  # the element on its loop for the sinusoid it will see
+        n_warm = int(np.ceil(WARMUP_PERIODS * 2 * np.pi / w0.min() / dt))
+        for n in range(-n_warm, 0):  # ends at t = 0, where the loop takes over
+            runner.step(-y0 * np.cos(w0 * (n + 0.5) * dt), (n + 0.5) * dt)
+        e_prev = -y0 * np.cos(w0 * -dt)
     n_rec = n_steps // record_every + 1
     rec = {k: np.empty((B, n_rec)) for k in ("e", "u", "y", "p")}
-    e_prev = None
     for n in range(n_steps + 1):  # time necessarily steps; the batch is vectorised
         y = np.einsum("bi,bi->b", C, x)
         e = -y
@@ -138,8 +164,11 @@ def simulate_loop(
     )
 
 
-def _discretise(lp, gains, dt):
-    mats = []
+def _realisations(lp, gains):
+    """Continuous state-space ``(A, B, C)`` of ``G0`` (one, ``K`` applied at the input) or of
+    ``G(s; K)`` per gain when ``K`` enters the plant otherwise; the realisation
+    :func:`_discretise` samples."""
+    out = []
     for g in [1.0] if lp.linear_in_gain else gains:  # one model, or one per gain when K is inside
         num, den = lp.polynomials(g)
         num = np.trim_zeros(np.asarray(num, float), "f")
@@ -150,7 +179,40 @@ def _discretise(lp, gains, dt):
                 "the time-domain check needs a strictly proper plant (more poles than zeros)"
             )
         A, Bm, C, _ = signal.tf2ss(num, den)
-        Ad, Bd, Cd, _, _ = signal.cont2discrete((A, Bm, C, np.zeros((1, 1))), dt, method="zoh")
+        out.append((A, Bm[:, 0], C[0]))
+    return out
+
+
+def _sinusoidal_state(lp, gains, y0, w0):
+    """States at ``t = 0`` of the plant's steady response ``y = y0 cos(w0 t)``: with
+    ``X = (j w0 I - A)^-1 B`` the state is ``Re(X U)`` and the output ``Re(C X U)``, so
+    ``U = y0 / (C X)`` (the input's scale, gain included, drops out)."""
+    mats = _realisations(lp, gains)
+    x = np.empty((gains.size, mats[0][0].shape[0]))
+    for b in range(gains.size):  # one small solve per batch member
+        A, Bv, C = mats[0] if lp.linear_in_gain else mats[b]
+        bad = not (np.isfinite(w0[b]) and w0[b] > 0)
+        if not bad:
+            try:
+                X = np.linalg.solve(1j * w0[b] * np.eye(A.shape[0]) - A, Bv)
+            except np.linalg.LinAlgError:  # a pole of the plant at j w0
+                bad = True
+        G = C @ X if not bad else np.nan
+        if bad or not (np.isfinite(G) and G != 0):
+            raise OptionError(
+                f"initial_omega {w0[b]:g} rad/s: need a positive frequency where the plant's "
+                "response is finite and nonzero"
+            )
+        x[b] = np.real(X * y0[b] / G)
+    return x
+
+
+def _discretise(lp, gains, dt):
+    mats = []
+    for A, Bv, C in _realisations(lp, gains):
+        Ad, Bd, Cd, _, _ = signal.cont2discrete(
+            (A, Bv[:, None], C[None, :], np.zeros((1, 1))), dt, method="zoh"
+        )
         mats.append((Ad, Bd[:, 0], Cd[0]))
     if lp.linear_in_gain:
         Ad, Bd, C = mats[0]

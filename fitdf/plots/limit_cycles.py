@@ -6,9 +6,10 @@
   unstable), framed on where the loci meet, beside a panel of the whole loci. For a
   measured core the loci lie in the second quadrant (phase lead, Fig 5.10).
 * :func:`plot_thesis_comparison` -- predicted vs measured amplitude and frequency
-  against the system gain for Tables 5.1 and 5.2, with the predicted and measured
-  gains at which the oscillation dies out; its title names the analog computer's time
-  scale ``alpha`` and gain scale ``beta`` (:func:`fitdf.thesis.estimate_thesis_scales`).
+  against the system gain for Tables 5.1 and 5.2, unscaled and with the analog computer's
+  time and gain scales fitted to the other blocks (:mod:`fitdf.thesis.scales`), the
+  simulated loop beside harmonic balance, the measured die-out brackets and the predicted
+  critical gains.
 * :func:`plot_time_response` -- a simulated loop (:mod:`fitdf.loop.simulate`).
 
 Like :mod:`fitdf.plots.thesis`, figures are built on the Agg canvas without
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.patches import Rectangle
+from matplotlib.ticker import FormatStrFormatter, LogLocator
 
 from fitdf.plots._figure import new_figure
 
@@ -230,42 +232,56 @@ def plot_nyquist(
     return fig
 
 
-def _scales_title(df) -> str:
-    """The comparison figure's title: what was compared, and its two scalings spelled out."""
-    alpha, beta = df.attrs.get("alpha", np.nan), df.attrs.get("beta", np.nan)
-    joint = df.attrs.get("scales", {}).get("joint", {})
-    estimated = joint.get("alpha") == alpha and joint.get("beta") == beta
-    how = "estimated from the tables by harmonic balance" if estimated else "as given"
-    return (
-        "Tables 5.1/5.2 (analog computer) vs harmonic balance with the Appendix B fits\n"
-        f"plant run as G(s/\u03b1), \u03b1 = {alpha:.3g}: the computer's time scale; "
-        f"loop gain \u03b2K, \u03b2 = {beta:.3g}:\n"
-        f"the scale of its system gain K (\u03b1 and \u03b2 {how})"
-    )
+#: How each setting of the scales is drawn: (line style, simulated-loop marker, words).
+SETTING_STYLES = {
+    "unscaled": ("-", "+", "unscaled (\u03b1 = \u03b2 = 1)"),
+    "held_out": ("--", "1", "scales fitted to the other blocks"),
+    "given": (":", "2", "scales as given"),
+}
+
+
+def _comparison_title(df) -> str:
+    """The comparison figure's title: what was compared, and each setting of the scales."""
+    settings = list(dict.fromkeys(df["setting"]))
+    lines = ["Tables 5.1/5.2 (analog computer) vs harmonic balance with the Appendix B fits"]
+    words = {
+        "unscaled": "solid: unscaled, the plant and the system gain as printed (\u03b1 = \u03b2 = 1)",
+        "held_out": "dashed: G(s/\u03b1) and loop gain \u03b2K, \u03b1 and \u03b2 fitted to "
+        "the other three blocks",
+        "given": "dotted: \u03b1 and \u03b2 as given",
+    }
+    return "\n".join(lines + [words[s] for s in settings if s in words])
 
 
 def plot_thesis_comparison(df):
     """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.thesis.thesis_limit_cycle_comparison`).
 
-    Columns are the cores, rows the amplitude and the angular frequency against the
-    system gain. Markers: measured (circles 0 ohm, squares 600 ohm; x: the values
-    printed for a row marked "oscillations die out"); lines: predicted largest stable cycle;
-    plus signs: the simulated loop (if the frame has them); dotted verticals: the predicted
-    gain below which no cycle exists. Every element is in the legend under its column; the
-    title says what the scalings ``alpha`` (time) and ``beta`` (gain) of ``df.attrs`` are.
+    Columns are the cores, rows the amplitude and the angular frequency against the system
+    gain. Markers: measured (circles 0 ohm, squares 600 ohm; x: the values printed for a row
+    marked "oscillations die out"); lines: the predicted largest stable cycle in each setting
+    of the scales (solid unscaled, dashed held out, dotted given; the held-out label gives the
+    block's ``alpha`` and ``beta``); ``+`` / tri markers: the simulated loop (if the frame has
+    it); shaded: the measured die-out bracket (largest gain that died out to smallest that
+    oscillated); vertical lines: the predicted critical gains, styled by setting. Every element
+    is in the legend under its column; the title says what each setting is.
     """
     cores = list(dict.fromkeys(df["core"]))
-    fig, axes = new_figure((4.6 * len(cores), 8.4), 2, len(cores), sharex="col")
+    settings = list(dict.fromkeys(df["setting"]))
+    fig, axes = new_figure((4.8 * len(cores), 9.0), 2, len(cores), sharex="col")
     for j, core in enumerate(cores):
         sub = df[df["core"] == core]
         for k, (rs, block) in enumerate(sub.groupby("source_impedance_ohm")):
             color, marker = f"C{k}", ("o", "s")[k % 2]
-            b = block.sort_values("system_gain")
-            live = b[~b["dies_out"]]
-            dead = b[b["dies_out"]]
-            where = f"{rs:g} ohm ({b['table'].iloc[0]}, {b['model'].iloc[0]})"
-            for i, (meas, pred) in enumerate(
-                (("amplitude_v", "amplitude_pred"), ("omega_rad_s", "omega_pred"))
+            first = block[block["setting"] == settings[0]].sort_values("system_gain")
+            live, dead = first[~first["dies_out"]], first[first["dies_out"]]
+            where = f"{rs:g} ohm ({first['table'].iloc[0]}, {first['model'].iloc[0]})"
+            lo = dead["system_gain"].max() if not dead.empty else np.nan
+            hi = live["system_gain"].min() if not live.empty else np.nan
+            for i, (meas, pred, sim) in enumerate(
+                (
+                    ("amplitude_v", "amplitude_pred", "amplitude_sim"),
+                    ("omega_rad_s", "omega_pred", "omega_sim"),
+                )
             ):
                 ax = axes[i, j]
                 ax.plot(
@@ -276,24 +292,6 @@ def plot_thesis_comparison(df):
                     mfc="none",
                     label=f"measured, {where}",
                 )
-                ax.plot(
-                    b["system_gain"],
-                    b[pred],
-                    "-",
-                    color=color,
-                    lw=1.3,
-                    label=f"predicted largest stable cycle, {rs:g} ohm",
-                )
-                sim = {"amplitude_pred": "amplitude_sim", "omega_pred": "omega_sim"}[pred]
-                if sim in b:
-                    ax.plot(
-                        b["system_gain"],
-                        b[sim],
-                        "+",
-                        color=color,
-                        ms=7,
-                        label=f"simulated loop, {rs:g} ohm",
-                    )
                 # the tables print values for some rows marked "oscillations die out"
                 shown = dead[np.isfinite(dead[meas])]
                 if not shown.empty:
@@ -305,21 +303,62 @@ def plot_thesis_comparison(df):
                         ms=8,
                         label=f'printed in a row marked "oscillations die out", {rs:g} ohm',
                     )
-                crit = b["critical_gain_pred"].iloc[0]
-                if np.isfinite(crit):
-                    ax.axvline(
-                        crit,
+                if np.isfinite(lo) and np.isfinite(hi):
+                    ax.axvspan(
+                        lo,
+                        hi,
                         color=color,
-                        ls=":",
-                        lw=1.0,
-                        label=f"predicted gain below which no cycle exists, {rs:g} ohm",
+                        alpha=0.12,
+                        lw=0,
+                        label=f"measured die-out bracket, {rs:g} ohm",
                     )
+                for setting in settings:
+                    ls, sim_marker, words = SETTING_STYLES[setting]
+                    b = block[block["setting"] == setting].sort_values("system_gain")
+                    if setting == "held_out":
+                        words = (
+                            f"{words} (\u03b1 {b['alpha'].iloc[0]:.3g}, "
+                            f"\u03b2 {b['beta'].iloc[0]:.3g})"
+                        )
+                    ax.plot(
+                        b["system_gain"],
+                        b[pred],
+                        ls,
+                        color=color,
+                        lw=1.3,
+                        label=f"predicted largest stable cycle, {words}, {rs:g} ohm",
+                    )
+                    if sim in b:
+                        ax.plot(
+                            b["system_gain"],
+                            b[sim],
+                            sim_marker,
+                            color=color,
+                            ms=8,
+                            label=f"simulated loop, {SETTING_STYLES[setting][2]}, {rs:g} ohm",
+                        )
+                    crit = b["critical_gain_pred"].iloc[0]
+                    if np.isfinite(crit):
+                        ax.axvline(
+                            crit,
+                            color=color,
+                            ls=ls,
+                            lw=0.8,
+                            alpha=0.8,
+                            label="predicted gain below which no cycle exists, "
+                            f"{SETTING_STYLES[setting][2]}, {rs:g} ohm",
+                        )
         axes[0, j].set_title(f"{core}", fontsize="medium")
         axes[0, j].set_ylabel("amplitude (V)")
         axes[1, j].set_ylabel("omega (rad/s)")
         axes[1, j].set_xlabel("system gain K")
         for ax in axes[:, j]:
             ax.set_xscale("log")
+            ax.set_yscale("log")
+            for axis in (ax.xaxis, ax.yaxis):  # plain numbers at 1, 2, 5 x 10^k
+                axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+                axis.set_major_formatter(FormatStrFormatter("%g"))
+                axis.set_minor_formatter(FormatStrFormatter(""))
         # one legend per column, under it: the entries of both rows (a row may lack some)
         entries = {}
         for ax in axes[:, j]:
@@ -328,12 +367,12 @@ def plot_thesis_comparison(df):
         axes[1, j].legend(
             entries.values(),
             entries.keys(),
-            fontsize="x-small",
+            fontsize="xx-small",
             loc="upper center",
             bbox_to_anchor=(0.5, -0.16),
             ncol=1,
         )
-    fig.suptitle(_scales_title(df), fontsize="medium")
+    fig.suptitle(_comparison_title(df), fontsize="medium")
     return fig
 
 

@@ -518,14 +518,6 @@ def _audit_findings(audit) -> list[str]:
 
 
 def _limit_finding(lc) -> str | None:
-    if not lc.get("rows"):
-        return None
-    df = pd.DataFrame(lc["rows"])
-    if not ({"amplitude_ratio", "omega_ratio"} <= set(df) and df["amplitude_ratio"].notna().any()):
-        return None
-    return (
-        f"Limit cycles (Tables 5.1, 5.2): predicted over measured amplitude has median "
-        f"{df['amplitude_ratio'].median():.2f} (range {df['amplitude_ratio'].min():.2f}-"
-        f"{df['amplitude_ratio'].max():.2f}) and predicted over measured frequency median "
-        f"{df['omega_ratio'].median():.2f} over {int(df['amplitude_ratio'].notna().sum())} rows."
-    )
+    """The limit-cycle comparison's own one-line finding (``attrs.statements.finding``, made
+    by :func:`fitdf.thesis.limit_cycle_statements` from the record's fields)."""
+    return ((lc.get("attrs") or {}).get("statements") or {}).get("finding")

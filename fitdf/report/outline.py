@@ -10,8 +10,6 @@ cycles, the audit, the thesis's curves and the models -- as a list of document b
 
 from __future__ import annotations
 
-import json
-
 from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.plots.summary import CAPTION as SUMMARY_CAPTION
 from fitdf.report.block_outline import _block_blocks
@@ -26,11 +24,12 @@ from fitdf.report.document import (
     H,
     P,
     _records_table,
-    fmt,
     law,
     law_names,
     slug,
 )
+from fitdf.report.limit_outline import LIMIT as _LIMIT
+from fitdf.report.limit_outline import limit_blocks as _limit_blocks
 from fitdf.report.overview import regenerate_claims
 from fitdf.report.physics_outline import PHYSICS, physics_blocks
 from fitdf.report.words import report_words
@@ -39,7 +38,6 @@ __all__ = ["build_document", "nav_links"]
 
 TITLE = "fitdf comparison report: describing-function models of three magnetic cores"
 _CROSS = "Cross-impedance prediction"
-_LIMIT = "Limit cycles (Tables 5.1, 5.2)"
 _AUDIT = "Audit of the printed tables (Appendix B)"
 _THESIS = "The thesis's computed curves (Graphs 4.1-4.7)"
 _SMALL = "Small signals: a DC-bias hypothesis"
@@ -339,59 +337,6 @@ def _small_signal_blocks(res):
                 ],
             )
         )
-    return out
-
-
-def _limit_blocks(res):
-    lc = res["limit_cycles"]
-    out = [H(2, _LIMIT)]
-    if not lc.get("available"):
-        return out + [P(lc.get("reason", "Not available."))]
-    if lc.get("error"):
-        return out + [P(f"The limit-cycle comparison failed in this run: `{lc['error']}`.")]
-    out.append(
-        P(
-            "Limit cycles of the thesis's analog-computer loop predicted by harmonic balance from the fits "
-            "(`fitdf.thesis.thesis_limit_cycle_comparison`; per block the lowest-AICc law among "
-            + (
-                ", ".join(law(law_names(res), m) for m in lc["models_offered"])
-                if lc.get("models_offered")
-                else "all laws"
-            )
-            + ") against the measured Tables 5.1 and 5.2."
-        )
-    )
-    if lc.get("figure"):
-        out.append(IMG(lc["figure"], "limit cycles, predicted against measured"))
-    rows = lc.get("rows") or []
-    if rows:
-        cols = [(c, c) for c in lc.get("columns", rows[0].keys())]
-        names = law_names(res)
-        rows = [{**r, "model": law(names, r["model"])} if r.get("model") else r for r in rows]
-        out.append(_records_table(rows, cols))
-    attrs = lc.get("attrs") or {}
-    scalars = {k: v for k, v in attrs.items() if not isinstance(v, (dict, list))}
-    if scalars:
-        out.append(UL([f"{k}: {fmt(v)}" for k, v in scalars.items()]))
-    for k, v in attrs.items():
-        if isinstance(v, dict) and v and all(isinstance(x, dict) for x in v.values()):
-            keys = list(
-                dict.fromkeys(
-                    c for x in v.values() for c in x if not isinstance(x[c], (dict, list))
-                )
-            )
-            out.append(
-                DETAILS(
-                    f"{k}",
-                    [
-                        TABLE(
-                            [k] + keys, [[name] + [x.get(c) for c in keys] for name, x in v.items()]
-                        )
-                    ],
-                )
-            )
-        elif isinstance(v, (dict, list)) and v:
-            out.append(DETAILS(f"{k}", [("code", json.dumps(v, indent=1))]))
     return out
 
 

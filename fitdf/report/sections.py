@@ -554,16 +554,19 @@ def limit_cycles_switched_off() -> dict:
 
 
 def limit_cycle_section(seed, models, n_starts, candidates, figdir) -> dict:
-    """Tables 5.1/5.2 against the limit cycles predicted from the fits (:mod:`fitdf.thesis`).
+    """Tables 5.1/5.2 against the limit cycles predicted from the fits (:mod:`fitdf.thesis`):
+    unscaled and with held-out scales, by harmonic balance and simulated in time.
 
     ``models`` are the lowest-AICc models of the blocks B.1, B.3, B.2, B.5; the
     comparison picks the lowest-AICc of them per block, which is the same choice as
     among all models, at a fraction of the cost. ``candidates`` (table name -> the
     report's least-squares fits of those models) are used instead of fitting again.
+    The record's ``attrs`` hold the comparison's summaries and its sentences
+    (``statements``).
     """
     try:
         df = thesis_limit_cycle_comparison(
-            seed=seed, models=models, n_starts=n_starts, candidates=candidates
+            seed=seed, models=models, n_starts=n_starts, candidates=candidates, time_domain=True
         )
     except Exception as exc:  # the section reports the failure; the rest of the report stands
         return {
