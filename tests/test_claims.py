@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from fitdf.report import claims, criteria, findings, physics_claims
+from fitdf.report import audit_claims, claims, criteria, findings, physics_claims
 from fitdf.report.claims import claim, literal_numbers, paragraph, recompute, resolve, rule, say
 from fitdf.report.words import every_claim, report_words
 
@@ -314,13 +314,12 @@ def _made_again(results: dict, tree) -> int:
 
 
 def _plain_statements(results: dict) -> list[str]:
-    """The Findings statements still written without claims (the audit's, the limit cycles',
-    Supermalloy's)."""
-    out = findings._audit_findings(results.get("audit", {}))
-    out.append(
-        physics_claims._supermalloy_finding((results.get("physics") or {}).get("supermalloy"))
-    )
-    out.append(findings._limit_finding(results.get("limit_cycles", {})))
+    """The Findings statements still written without claims (the limit cycles', made and
+    tested by fitdf.thesis; Supermalloy's, by fitdf.report.supermalloy)."""
+    out = [
+        physics_claims._supermalloy_finding((results.get("physics") or {}).get("supermalloy")),
+        findings._limit_finding(results.get("limit_cycles", {})),
+    ]
     return [s for s in out if s]
 
 
@@ -409,3 +408,52 @@ def test_the_sentences_best_law_is_the_selection_rules(tiny_report):
         assert criteria.best_law(models, aicc) == sel["best"]["model"], key
         tied = {m for m, _ in criteria.aicc_ties(models, aicc)}
         assert tied == {t.split("/")[0] for t in sel["ties"]}, key
+
+
+def _factor_results(rows):
+    keys = ("table", "frequency_hz", "factor_printed", "factor_data", "follows_printed")
+    blocks = [
+        dict(zip(keys, r), rows_printed_ok=2, rows_with_output=5, source_impedance_ohm=0.0)
+        for r in rows
+    ]
+    tables = [{"table": "B.9", "flagged": 3, "excluded_by_default": 1, "rows": 10}]
+    return {"audit": {"tables": tables, "block_factors": blocks, "findings": []}}
+
+
+def test_the_audit_statements_are_the_audits_own_sentences(tiny_report):
+    """The audit's Findings claims (fitdf.report.audit_claims) say what the audit's own
+    sentences (fitdf.data.audit, computed from the tables by another path) say of the tables
+    whose rows do not follow their footnote factor, and count the flagged rows."""
+    results = json.loads((tiny_report / "results.json").read_text())
+    audit = results["audit"]
+    said = [claims.text(p) for p in audit_claims.audit_findings(results)]
+    n_flag = sum(t["flagged"] for t in audit["tables"])
+    assert said[0].startswith(f"The audit of the printed tables flags {n_flag} of ")
+    theirs = [f for f in audit["findings"] if "footnote factor" in f and "followed by all" not in f]
+    assert said[1:] == theirs and len(theirs) >= 2  # B.1 and B.2 print a factor they do not follow
+
+
+def test_the_audit_factor_statement_at_its_boundaries():
+    """All blocks following the footnote: nothing to say; one block off: '1 of 2'; every block
+    off: 'all'; no footnote printed: the factor the data follow."""
+    follow = _factor_results([("B.9", 3.0, 2.0, 2.0, True), ("B.9", 6.0, 2.0, 2.0, None)])
+    assert audit_claims.audit_findings(follow)[1:] == []
+    one = _factor_results([("B.9", 3.0, 2.0, 2.2, False), ("B.9", 6.0, 2.0, 2.0, True)])
+    (c,) = audit_claims.audit_findings(one)[1]
+    assert c["text"] == (
+        "B.9: the footnote factor 2 fits 2 of 5 rows in 1 of 2 frequency blocks (3 c/s); the "
+        "data follow 2.100 (blocks 2.000-2.200), i.e. 1.050 x the footnote."
+    )
+    both = _factor_results([("B.9", 3.0, 2.0, 2.2, False), ("B.9", 6.0, 2.0, 2.2, False)])
+    (c,) = audit_claims.audit_findings(both)[1]
+    assert "4 of 10 rows in all frequency blocks (3, 6 c/s)" in c["text"]
+    assert "(blocks 2.200)" in c["text"]  # a spread whose ends print alike prints once
+    none = _factor_results([("B.9", 3.0, None, 1.5, None)])
+    (c,) = audit_claims.audit_findings(none)[1]
+    assert c["text"] == (
+        "B.9: no footnote factor; the data follow DF = 1.500 x output / input (blocks 1.500)."
+    )
+    (c,) = audit_claims.audit_findings(none)[0]
+    assert c["text"].startswith(
+        "The audit of the printed tables flags 3 of 10 rows and excludes 1 "
+    )

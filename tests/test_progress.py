@@ -248,20 +248,29 @@ def test_the_committed_run_is_planned_as_it_ran():
     assert total == pytest.approx(costs.COMMITTED_RUN["total_s"], rel=0.03)
     assert not costs.rough(settings) and costs.rough(ReportSettings.for_run(quick=True))
     line = costs.start_line(what, total, 2)
-    assert "About 69 min with 2 workers" in line and "69 min for `fitdf report --full`" in line
+    took = duration_text(costs.COMMITTED_RUN["total_s"])
+    assert f"About {duration_text(total)} with 2 workers" in line
+    assert f"{took} for `fitdf report --full`" in line
     assert "first jobs finish" in line
     # the default run, from the same jobs: its six posteriors are among them
     default, _ = _plan(ReportSettings.for_run())
     assert [len(p.planned) for p in default] == [56, 47, 12]
-    assert 15 * 60 < costs.estimate(default, 2) < 20 * 60
+    # (about 20 min measured for the default run; planned from the --full run's jobs)
+    assert 15 * 60 < costs.estimate(default, 2) < 25 * 60
 
 
 def test_expected_seconds_of_jobs_the_table_lacks():
     # a job of the committed report: its own time; another law: its kind's mean on the block
-    assert costs.expected_seconds(("nested", "B.4", "preisach")) == 273.13
-    b4 = [273.13, 135.24, 52.98]
+    b4 = [s for k, s in costs._SECONDS.items() if k.startswith("nested B.4 ")]
+    assert len(b4) == 3 and "nested B.4 preisach" in costs._SECONDS
+    assert (
+        costs.expected_seconds(("nested", "B.4", "preisach"))
+        == costs._SECONDS["nested B.4 preisach"]
+    )
     assert costs.expected_seconds(("nested", "B.4", "rayleigh")) == pytest.approx(sum(b4) / 3)
-    assert costs.unknown_laws("nested", "B.4", 3) == [("nested", s) for s in b4]
+    assert costs.unknown_laws("nested", "B.4", 3) == [
+        ("nested", s) for s in sorted(b4, reverse=True)
+    ]  # longest first
     # a kind the committed report did not run: a multiple of the block's least-squares fits
     lsq_b5 = [s for k, s in costs._SECONDS.items() if k.startswith("B.5 ")]
     assert costs.expected_seconds(("mcmc", "B.5", "preisach")) == pytest.approx(

@@ -44,7 +44,7 @@ COMMITTED_RUN = {
     "cpu": "Intel(R) Xeon(R) Processor",
     "cores": 2,
     "workers": 2,
-    "total_s": 4156,
+    "total_s": 4446,
     "command": "fitdf report --full",
 }
 
@@ -69,136 +69,136 @@ COMMITTED_SETTINGS = {
 #: Seconds of each job of the committed report, under its key joined by spaces
 #: (:func:`table_text` of its results.json).
 _TABLE = """
-deltamax-joint jiles_atherton            8.04
-B.5 jiles_atherton                       9.5
-permalloy-joint jiles_atherton           4.4
-B.4 jiles_atherton                       3.6
-deltamax-joint preisach                  16.01
-B.5 preisach                             14.28
-deltamax-joint cubic_hc                  23.33
-B.1 jiles_atherton                       2.28
-permalloy-joint preisach                 7.86
-B.3 jiles_atherton                       2.3
-B.4 preisach                             6.07
-B.2 jiles_atherton                       2.72
-B.5 cubic_hc                             22.84
-deltamax-joint rayleigh                  3.65
-permalloy-joint cubic_hc                 16.42
-B.4 cubic_hc                             15.52
-deltamax-joint constant_width            2.45
-B.5 rayleigh                             2.72
-B.1 preisach                             5.69
-B.3 preisach                             3
-permalloy-joint rayleigh                 1.9
-B.2 preisach                             7.13
-deltamax-joint frequency_hc              3.97
-B.5 constant_width                       2.47
-B.4 rayleigh                             1.67
-B.1 cubic_hc                             9.7
-permalloy-joint constant_width           1.41
-B.3 cubic_hc                             10.21
-B.5 frequency_hc                         3.2
-B.4 constant_width                       2.16
-B.2 cubic_hc                             8.37
-deltamax-joint proportional_width        3.67
-deltamax-joint proportional_width_fig42  4.96
-permalloy-joint frequency_hc             3.33
-B.4 frequency_hc                         2.1
-B.1 rayleigh                             0.76
-B.3 rayleigh                             1.02
-B.5 proportional_width                   2.71
-B.5 proportional_width_fig42             3.1
-B.2 rayleigh                             0.75
-B.1 constant_width                       0.81
-permalloy-joint proportional_width       2.67
-permalloy-joint proportional_width_fig42 2.67
-B.3 constant_width                       1.27
-B.4 proportional_width                   2.03
-B.4 proportional_width_fig42             3.09
-B.2 constant_width                       1.25
-B.1 frequency_hc                         1.38
-B.3 frequency_hc                         1.48
-B.2 frequency_hc                         1.75
-B.1 proportional_width                   1.77
-B.1 proportional_width_fig42             1.77
-B.3 proportional_width                   1.31
-B.3 proportional_width_fig42             1.92
-B.2 proportional_width                   1.52
-B.2 proportional_width_fig42             0.9
-limit                                    17.65
-nested permalloy-joint jiles_atherton    176.96
-nested B.4 jiles_atherton                135.24
-nested deltamax-joint preisach           452.71
-nested B.5 preisach                      287.12
-nested deltamax-joint cubic_hc           430.93
-nested B.1 jiles_atherton                101.61
-nested permalloy-joint preisach          341.19
-nested B.3 jiles_atherton                81.03
-nested B.4 preisach                      273.13
-nested B.2 jiles_atherton                92.95
-nested B.5 cubic_hc                      607.31
-nested deltamax-joint constant_width     101.75
-nested B.1 preisach                      192.95
-nested B.3 preisach                      165.42
-nested B.2 preisach                      167.93
-nested B.5 constant_width                65.42
-nested permalloy-joint constant_width    102.67
-nested B.4 constant_width                52.98
-nested B.2 cubic_hc                      113.37
-nested B.1 rayleigh                      39.12
-nested B.3 constant_width                34.12
-dynamic permalloy-joint jiles_atherton   11.28
-dynamic B.4 jiles_atherton               7.81
-dynamic deltamax-joint preisach          43.58
-dynamic B.5 preisach                     23.96
-dynamic deltamax-joint cubic_hc          24.75
-dynamic B.1 jiles_atherton               4.22
-dynamic permalloy-joint preisach         18.8
-dynamic B.3 jiles_atherton               3.81
-dynamic B.4 preisach                     12.11
-dynamic B.2 jiles_atherton               3.88
-dynamic B.5 cubic_hc                     12.63
-dynamic B.1 preisach                     7.75
-dynamic B.3 preisach                     5.45
-dynamic B.2 preisach                     5.14
-cv permalloy-joint jiles_atherton        3.94
-cv B.4 jiles_atherton                    2.41
-cv deltamax-joint preisach               12.83
-cv B.5 preisach                          9.38
-cv deltamax-joint cubic_hc               5.96
-cv B.1 jiles_atherton                    1.37
-cv permalloy-joint preisach              7.28
-cv B.3 jiles_atherton                    0.91
-cv B.4 preisach                          3.54
-cv B.2 jiles_atherton                    1.37
-cv B.5 cubic_hc                          4.79
-cv B.1 preisach                          4.75
-cv B.3 preisach                          1.38
-cv B.2 preisach                          1.94
-printed B.5 preisach                     12.29
-printed B.5 cubic_hc                     21.09
-printed deltamax-joint preisach          13.8
-printed deltamax-joint cubic_hc          26.06
-cross permalloy 0.0 600.0 preisach       9.52
-cross permalloy 0.0 600.0 jiles_atherton 4.53
-cross permalloy 600.0 0.0 preisach       7.63
-cross permalloy 600.0 0.0 jiles_atherton 4.68
-cross deltamax 0.0 600.0 preisach        13.7
-cross deltamax 0.0 600.0 jiles_atherton  8.95
-cross deltamax 600.0 0.0 preisach        12.64
-cross deltamax 600.0 0.0 cubic_hc        20.72
-block B.1                                6.78
-block B.3                                5.31
-block B.2                                6.27
-block B.5                                8.73
-block B.4                                7.53
-block permalloy-joint                    10.28
-block deltamax-joint                     12.22
-cross permalloy 0.0 600.0                1.24
-cross permalloy 600.0 0.0                1.23
-cross deltamax 0.0 600.0                 2.05
-cross deltamax 600.0 0.0                 1.79
-thesis                                   1.39
+deltamax-joint jiles_atherton            7.8
+B.5 jiles_atherton                       9.47
+permalloy-joint jiles_atherton           4.51
+B.4 jiles_atherton                       3.72
+deltamax-joint preisach                  16.81
+B.5 preisach                             15.29
+deltamax-joint cubic_hc                  26.35
+B.1 jiles_atherton                       2.34
+permalloy-joint preisach                 7.93
+B.3 jiles_atherton                       2.46
+B.4 preisach                             6.49
+B.2 jiles_atherton                       3.21
+B.5 cubic_hc                             27.8
+deltamax-joint rayleigh                  4.35
+permalloy-joint cubic_hc                 19.08
+B.4 cubic_hc                             18.13
+deltamax-joint constant_width            3.27
+B.5 rayleigh                             3.07
+B.1 preisach                             6.43
+B.3 preisach                             3.53
+permalloy-joint rayleigh                 2.18
+B.2 preisach                             9.33
+deltamax-joint frequency_hc              5.22
+B.5 constant_width                       4.98
+B.4 rayleigh                             1.99
+B.1 cubic_hc                             11.46
+permalloy-joint constant_width           1.6
+B.3 cubic_hc                             12.27
+B.5 frequency_hc                         3.59
+B.4 constant_width                       2.84
+B.2 cubic_hc                             11.93
+deltamax-joint proportional_width        5.15
+deltamax-joint proportional_width_fig42  6.17
+permalloy-joint frequency_hc             3.82
+B.4 frequency_hc                         2.52
+B.1 rayleigh                             0.89
+B.3 rayleigh                             1.29
+B.5 proportional_width                   3.37
+B.5 proportional_width_fig42             3.99
+B.2 rayleigh                             0.89
+B.1 constant_width                       0.96
+permalloy-joint proportional_width       3.15
+permalloy-joint proportional_width_fig42 3.11
+B.3 constant_width                       1.74
+B.4 proportional_width                   2.37
+B.4 proportional_width_fig42             3.5
+B.2 constant_width                       1.55
+B.1 frequency_hc                         1.63
+B.3 frequency_hc                         1.8
+B.2 frequency_hc                         2.21
+B.1 proportional_width                   2.32
+B.1 proportional_width_fig42             2.15
+B.3 proportional_width                   1.62
+B.3 proportional_width_fig42             2.37
+B.2 proportional_width                   1.9
+B.2 proportional_width_fig42             1.15
+limit                                    41.04
+nested permalloy-joint jiles_atherton    215.64
+nested B.4 jiles_atherton                165.31
+nested deltamax-joint preisach           618.36
+nested B.5 preisach                      444.9
+nested deltamax-joint cubic_hc           455.85
+nested B.1 jiles_atherton                108.67
+nested permalloy-joint preisach          362.98
+nested B.3 jiles_atherton                93.21
+nested B.4 preisach                      270
+nested B.2 jiles_atherton                93.31
+nested B.5 cubic_hc                      320.62
+nested B.4 cubic_hc                      113.76
+nested deltamax-joint constant_width     99.6
+nested B.1 preisach                      208.22
+nested B.3 preisach                      172.79
+nested B.2 preisach                      180.53
+nested B.5 constant_width                63.74
+nested permalloy-joint constant_width    102.51
+nested B.2 cubic_hc                      120.38
+nested B.1 rayleigh                      42.37
+nested B.3 constant_width                37.64
+dynamic permalloy-joint jiles_atherton   12.7
+dynamic B.4 jiles_atherton               9.57
+dynamic deltamax-joint preisach          45.4
+dynamic B.5 preisach                     25.54
+dynamic deltamax-joint cubic_hc          26.75
+dynamic B.1 jiles_atherton               4.81
+dynamic permalloy-joint preisach         19.48
+dynamic B.3 jiles_atherton               4.12
+dynamic B.4 preisach                     12.19
+dynamic B.2 jiles_atherton               4.06
+dynamic B.5 cubic_hc                     13.07
+dynamic B.1 preisach                     8.04
+dynamic B.3 preisach                     5.63
+dynamic B.2 preisach                     5.2
+cv permalloy-joint jiles_atherton        4.14
+cv B.4 jiles_atherton                    2.33
+cv deltamax-joint preisach               13.1
+cv B.5 preisach                          9.58
+cv deltamax-joint cubic_hc               5.87
+cv B.1 jiles_atherton                    1.4
+cv permalloy-joint preisach              7.66
+cv B.3 jiles_atherton                    0.95
+cv B.4 preisach                          3.7
+cv B.2 jiles_atherton                    1.29
+cv B.5 cubic_hc                          4.75
+cv B.1 preisach                          4.76
+cv B.3 preisach                          1.41
+cv B.2 preisach                          2.01
+printed B.5 preisach                     12.44
+printed B.5 cubic_hc                     24.08
+printed deltamax-joint preisach          14.51
+printed deltamax-joint cubic_hc          25.93
+cross permalloy 0.0 600.0 preisach       9.56
+cross permalloy 0.0 600.0 jiles_atherton 4.74
+cross permalloy 600.0 0.0 preisach       8.07
+cross permalloy 600.0 0.0 jiles_atherton 5.15
+cross deltamax 0.0 600.0 preisach        14.92
+cross deltamax 0.0 600.0 jiles_atherton  9.75
+cross deltamax 600.0 0.0 preisach        13.6
+cross deltamax 600.0 0.0 cubic_hc        21.48
+block B.1                                7.25
+block B.3                                5.68
+block B.2                                6.85
+block B.5                                9.69
+block B.4                                7.84
+block permalloy-joint                    10.59
+block deltamax-joint                     13.11
+cross permalloy 0.0 600.0                1.32
+cross permalloy 600.0 0.0                1.69
+cross deltamax 0.0 600.0                 1.89
+cross deltamax 600.0 0.0                 1.97
+thesis                                   1.47
 """
 
 #: First words of the keys of the jobs that are not least-squares fits.

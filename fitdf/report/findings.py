@@ -19,6 +19,7 @@ from fitdf.inference.evidence import MISSED_BY_ERRORS
 from fitdf.inference.mcmc import MIN_ESS, MIN_STEPS_OVER_TAU, RHAT_MAX
 from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.inference.small_signal import verdict
+from fitdf.report.audit_claims import audit_findings
 from fitdf.report.claims import paragraph, rule, say, span
 from fitdf.report.conclusion import LSQ, error_percent
 from fitdf.report.criteria import AICC_TIE, LOO_TIE_SE, best_by, best_law, known
@@ -495,28 +496,12 @@ def findings(results: dict, physics=()) -> list:
         if len(rec.get("tables") or []) > 1
     ]
     out += list(physics)
-    out += _audit_findings(results.get("audit", {}))
+    out += audit_findings(results)
     out.append(_limit_finding(results.get("limit_cycles", {})))
     return [p for p in out if p]
 
 
 # ------------------------------------------------------------------ not yet claims
-def _audit_findings(audit) -> list[str]:
-    if not audit.get("tables"):
-        return []
-    n_flag = sum(t["flagged"] for t in audit["tables"])
-    n_excl = sum(t["excluded_by_default"] for t in audit["tables"])
-    n_rows = sum(t["rows"] for t in audit["tables"])
-    return [
-        f"The audit of the printed tables flags {n_flag} of {n_rows} rows and excludes {n_excl} "
-        "by default (see the audit section for every row and reason)."
-    ] + [
-        f
-        for f in audit.get("findings", [])
-        if "footnote factor" in f and "followed by all" not in f
-    ]
-
-
 def _limit_finding(lc) -> str | None:
     """The limit-cycle comparison's own one-line finding (``attrs.statements.finding``, made
     by :func:`fitdf.thesis.limit_cycle_statements` from the record's fields)."""
