@@ -40,8 +40,9 @@ variance ``(1 - a) / (n a)`` for acceptance ``a`` of ``n`` draws); bounds are in
 so the relative variances add, weighted by each shell's share of the evidence squared.
 ``tests/test_nested.py`` checks it against Gaussian likelihoods whose evidence is known.
 
-**Convergence** (:func:`is_converged`): at least 400 effective draws (the bulk ESS MCMC
-asks for, :data:`fitdf.inference.mcmc.MIN_ESS`) and an evidence error of at most 0.3. The
+**Convergence** (:func:`is_converged`): at least :data:`MIN_EFFECTIVE` effective draws (the
+bulk ESS MCMC asks for, :data:`fitdf.inference.mcmc.MIN_ESS`) and an evidence error of at
+most :data:`MAX_LOG_EVIDENCE_ERROR`. The
 run goes on, in rounds of a larger target of effective draws, until both hold or the
 evaluations reach ``max_evaluations``.
 
