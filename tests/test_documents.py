@@ -389,3 +389,15 @@ def test_five_rows_rank_laws_of_up_to_eight_parameters_and_three_rank_none(tmp_p
     path.write_text("\n".join(csv.splitlines()[: 1 + three]) + "\n")
     ok, not_ranked = rankable_laws(str(path))
     assert ok == [] and not_ranked
+
+
+def test_the_benchmarks_state_the_least_squares_screen_and_starts():
+    from fitdf.inference.lsq import fit_lsq
+    from fitdf.models.cubic_hc import CubicHc
+
+    defaults = inspect.signature(fit_lsq).parameters
+    screen, starts = defaults["n_screen"].default, defaults["n_starts"].default
+    assert (
+        f"Least squares screens {screen} points and polishes {starts} starts per law "
+        f"({starts * CubicHc.start_multiple} for cubic_hc" in text("benchmarks/README.md")
+    )
