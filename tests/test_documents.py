@@ -370,6 +370,9 @@ def test_the_reports_posterior_counts_the_pages_state_are_its_settings():
         f"{words[full.sensitivity_top]} best" in guide
     )
     assert f"of the best {words[top]} laws of each core" in guide
+    readme = text("README.md")
+    assert f"posteriors and Bayesian evidence of the best {words[top]} laws of each core" in readme
+    assert f"posteriors and evidence of the best {words[full_top]} laws of every table" in readme
 
 
 def test_five_rows_rank_laws_of_up_to_eight_parameters_and_three_rank_none(tmp_path):
