@@ -404,3 +404,20 @@ def test_the_benchmarks_state_the_least_squares_screen_and_starts():
         f"Least squares screens {screen} points and polishes {starts} starts per law "
         f"({starts * CubicHc.start_multiple} for cubic_hc" in text("benchmarks/README.md")
     )
+
+
+def test_the_cubic_laws_bounds_and_starts_the_laws_page_states_are_its_own():
+    from fitdf.models import get_model
+
+    law = get_model("cubic_hc")
+    upper = {p.name: p.bounds[1] for p in law.params}
+    stated = re.search(
+        r"The bounds add ``bend`` :math:`\\le ([\d.]+)`, ``h0_ratio`` :math:`\\le ([\d.]+)` and "
+        r":math:`m_1 \\le ([\d.]+)`",
+        text("docs/method/laws.rst"),
+    )
+    assert [float(g) for g in stated.groups()] == [upper["bend"], upper["h0_ratio"], upper["m1"]]
+    words = {2: "twice", 3: "three times", 4: "four times"}
+    assert f"least squares uses {words[law.start_multiple]} the usual number of starts" in text(
+        "docs/method/laws.rst"
+    )
