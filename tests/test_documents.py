@@ -421,3 +421,75 @@ def test_the_cubic_laws_bounds_and_starts_the_laws_page_states_are_its_own():
     assert f"least squares uses {words[law.start_multiple]} the usual number of starts" in text(
         "docs/method/laws.rst"
     )
+
+
+def _walk(node, key):
+    """Every value under ``key`` in a JSON tree."""
+    if isinstance(node, dict):
+        for k, v in node.items():
+            if k == key:
+                yield v
+            yield from _walk(v, key)
+    elif isinstance(node, list):
+        for v in node:
+            yield from _walk(v, key)
+
+
+def test_the_benchmarks_account_of_the_committed_report_is_its_results():
+    """benchmarks/README.md's figures of ``fitdf report --full`` (the committed report) are
+    the ones its results.json records: phases, job-seconds, the posteriors' share, range and
+    evaluations, the least-squares stage and the longest job."""
+    results = json.loads((REPO / "reports" / "results.json").read_text(encoding="utf-8"))
+    timing, jobs = results["timing"], results["timing"]["jobs_s"]
+    bench = text("benchmarks/README.md")
+    full = bench.split("**`fitdf report --full`**", 1)[1].split("**Known limits.**")[0]
+    phases = re.search(r"least squares (\d+) s, second phase (\d+) s, figures (\d+) s", full)
+    (second,) = [
+        v
+        for k, v in timing.items()
+        if k.endswith("_s") and k not in ("least_squares_s", "figures_s", "total_s", "jobs_s")
+    ]
+    assert [int(g) for g in phases.groups()] == [
+        round(timing["least_squares_s"]),
+        round(second),
+        round(timing["figures_s"]),
+    ]
+    posterior = {k: v for k, v in jobs.items() if k.split()[0] in ("nested", "posterior")}
+    m = re.search(
+        r"Job-seconds (\d+), of which nested sampling is (\d+) \((\d+) %: (\d+)-(\d+) s a job; "
+        r"([\d,]+)-([\d,]+) evaluations a posterior\)",
+        full,
+    )
+    evaluations = list(_walk(results["blocks"], "n_likelihood_evaluations"))
+    assert [int(g.replace(",", "")) for g in m.groups()] == [
+        round(sum(jobs.values())),
+        round(sum(posterior.values())),
+        round(100 * sum(posterior.values()) / sum(jobs.values())),
+        round(min(posterior.values())),
+        round(max(posterior.values())),
+        min(evaluations),
+        max(evaluations),
+    ]
+    sampled = [d for d in _walk(results["blocks"], "diagnostics") if "log_evidence" in d]
+    converged = sum(bool(d["converged"]) for d in sampled)
+    assert f"All {len(sampled)} posteriors converge" in full and converged == len(sampled)
+    longest = max(jobs.values())
+    m = re.search(r"\((\d+) s\), so the critical path on a cluster is about (\d+) minutes", full)
+    assert [int(g) for g in m.groups()] == [
+        round(longest),
+        round((timing["least_squares_s"] + longest) / 60),
+    ]
+    blocks = set(results["blocks"])
+    fits = [v for k, v in jobs.items() if k.split()[0] in blocks and len(k.split()) == 2]
+    audits = [v for k, v in jobs.items() if k.split()[0] == "block"]
+    m = re.search(
+        r"this stage is (\d+) job-s \(the (\d+) fits (\d+), block audits and tables (\d+)\)", bench
+    )
+    assert [int(g) for g in m.groups()] == [
+        round(sum(fits) + sum(audits)),
+        len(fits),
+        round(sum(fits)),
+        round(sum(audits)),
+    ]
+    share = round(100 * sum(posterior.values()) / sum(jobs.values()))
+    assert f"68 % of the default report's work and {share} % of `--full`'s" in bench
