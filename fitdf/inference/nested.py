@@ -486,8 +486,7 @@ def fit_nested(
         raise ValueError(f"unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
     rng = np.random.default_rng(seed)
     # (the chain's solver starts cold: the sampler draws from the whole prior box, where a
-    # start at the optimum's currents is no faster, and from it a Preisach set on B.3 never
-    # returned)
+    # start at the optimum's currents is no faster)
     transform = PriorTransform(problem)
     loglike = NestedLikelihood(problem)
     P = problem.ndim
