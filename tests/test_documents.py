@@ -493,3 +493,15 @@ def test_the_benchmarks_account_of_the_committed_report_is_its_results():
     ]
     share = round(100 * sum(posterior.values()) / sum(jobs.values()))
     assert f"68 % of the default report's work and {share} % of `--full`'s" in bench
+
+
+def test_the_changelogs_unreleased_section_is_the_net_change():
+    """Unreleased states what differs from the last release, grouped Added/Changed/Fixed,
+    not the intermediate states that led there ("was 52 min", "(was 1000 and four)")."""
+    changelog = (REPO / "CHANGELOG.md").read_text(encoding="utf-8")
+    unreleased = changelog.split("## [Unreleased]", 1)[1].split("\n## [", 1)[0]
+    headings = re.findall(r"^### (.+)$", unreleased, flags=re.M)
+    assert headings and set(headings) <= {"Added", "Changed", "Fixed", "Removed"}
+    flat = " ".join(unreleased.split())
+    for history in (r"\(was\b", r"\bwas \d", r"\bnow\b", r"\bno longer\b", r"\bbefore that\b"):
+        assert not re.search(history, flat), history
