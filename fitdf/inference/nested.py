@@ -40,8 +40,9 @@ variance ``(1 - a) / (n a)`` for acceptance ``a`` of ``n`` draws); bounds are in
 so the relative variances add, weighted by each shell's share of the evidence squared.
 ``tests/test_nested.py`` checks it against Gaussian likelihoods whose evidence is known.
 
-**Convergence** (:func:`is_converged`): at least 400 effective draws (the bulk ESS MCMC
-asks for, :data:`fitdf.inference.mcmc.MIN_ESS`) and an evidence error of at most 0.3. The
+**Convergence** (:func:`is_converged`): at least :data:`MIN_EFFECTIVE` effective draws (the
+bulk ESS MCMC asks for, :data:`fitdf.inference.mcmc.MIN_ESS`) and an evidence error of at
+most :data:`MAX_LOG_EVIDENCE_ERROR`. The
 run goes on, in rounds of a larger target of effective draws, until both hold or the
 evaluations reach ``max_evaluations``.
 
@@ -485,8 +486,7 @@ def fit_nested(
         raise ValueError(f"unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
     rng = np.random.default_rng(seed)
     # (the chain's solver starts cold: the sampler draws from the whole prior box, where a
-    # start at the optimum's currents is no faster, and from it a Preisach set on B.3 never
-    # returned)
+    # start at the optimum's currents is no faster)
     transform = PriorTransform(problem)
     loglike = NestedLikelihood(problem)
     P = problem.ndim

@@ -157,8 +157,9 @@ class ReportSettings:
         of a block (None: all models; 0: none).
     sampler : {"nested", "emcee"}
         How the posteriors are sampled: nested sampling (the posterior and the evidence,
-        :func:`fitdf.inference.nested.fit_nested`; its rule: 400 effective draws, evidence
-        error <= 0.3) or emcee (:func:`fitdf.inference.mcmc.fit_mcmc`).
+        :func:`fitdf.inference.nested.fit_nested`; its rule:
+        :func:`fitdf.inference.nested.is_converged`) or emcee
+        (:func:`fitdf.inference.mcmc.fit_mcmc`).
     nested_live, nested_networks, nested_max_evaluations : int
         Nested sampling's live points, networks per bound, and the evaluations at which a run
         stops unconverged.
@@ -182,9 +183,9 @@ class ReportSettings:
         describing function is in closed form (``HysteresisModel.closed_form``): through the
         exact chain they cost 0.9-3.3 ms per parameter set against Preisach's 3.5-10 ms, so the
         same time buys them more steps. Of those laws only cubic_hc needs them: its kinked
-        posterior (the joint ``h1`` between rows) mixes slowly, and on B.1 it converged at
-        14400 steps (benchmarks/README.md); the others converge within
-        the common limits.
+        posterior (the joint ``h1`` between rows) mixes slowly, with the longest
+        autocorrelation times of the report's chains (benchmarks/README.md); the others
+        converge within the common limits.
     mcmc_skip : tuple of str
         Laws left out of the report's posteriors (the best laws *without* them are sampled;
         default none).
