@@ -17,6 +17,7 @@ import pandas as pd
 
 from fitdf._json import clean
 from fitdf.inference.metrics import phase_difference_deg, residual_metrics
+from fitdf.inference.presentation import fit_text
 from fitdf.params import DIMENSIONLESS
 
 __all__ = ["FitResult", "PosteriorResult", "residual_table"]
@@ -198,8 +199,17 @@ class FitResult:
             )
         return "\n".join(lines)
 
+    def text(self, width: int = 100) -> str:
+        """:meth:`summary`, the material constants and, for a posterior, its convergence
+        check (:func:`fitdf.inference.presentation.fit_text`)."""
+        return fit_text(self, width)
+
+    def table(self) -> pd.DataFrame:
+        """The parameters: :meth:`parameter_table`."""
+        return self.parameter_table()
+
     def __str__(self):
-        return self.summary()
+        return self.text()
 
     def to_dict(self) -> dict:
         """Plain-Python (JSON-ready) record of the result."""
