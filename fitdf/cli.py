@@ -133,7 +133,7 @@ def cmd_models(args):
         _emit_json(clean({"models": [m.describe() for m in laws], "chains": chains}))
         return 0
     if args.law is None:
-        _out("\n".join(m.text(brief=True) for m in laws))
+        _out("\n\n".join(m.text(brief=True) for m in laws))
         _out("\nMeasurement chains:")
         _out("\n".join(c.text(brief=True) for c in CHAINS.values()))
         _out("\n'fitdf models LAW' explains one law, its parameters and the chains' parameters.")
