@@ -244,6 +244,55 @@ def _judge(r: _Rows, idx, name, ref, axis, same, kin, highest=False) -> dict:
     return {**rec, "reversed": flagged, "verdict": "reversed" if flagged else "as printed"}
 
 
+def _mark_reversed(r: _Rows, b, idx, axis, records) -> None:
+    """The verdict on block ``b`` (rows ``idx``) once its columns are judged (``records``):
+    its flagged columns, or its input column when :data:`INPUT_REVERSED_COLUMNS` of them are
+    flagged and none reads better as printed (a record added for it); each of its rows marked
+    with the value it would read reversed."""
+    mine = [rec for j, rec in records if j == b]
+    flagged = [rec["column"] for rec in mine if rec["reversed"]]
+    if not flagged:
+        return
+    printed_better = any(
+        np.isfinite(rec["misfit_printed"])
+        and _reads_reversed(
+            rec["column"],
+            rec["misfit_printed"],
+            rec["misfit_reversed"],
+            rec["rho_printed"],
+            rec["rho_reversed"],
+        )
+        for rec in mine
+    )
+    if len(flagged) >= INPUT_REVERSED_COLUMNS and not printed_better:
+        for rec in mine:
+            if rec["reversed"]:
+                rec["verdict"] = "reads reversed because the input column is"
+        records.append(
+            (
+                b,
+                {
+                    **{k: mine[0][k] for k in _BLOCK},
+                    "column": "input_v",
+                    "axis": axis,
+                    "reversed": True,
+                    "verdict": f"reversed: {', '.join(flagged)} read reversed against it",
+                },
+            )
+        )
+        flagged = ["input_v"]
+    r.reversed[idx] = ",".join(flagged)
+    n = len(idx)
+    for k, i in enumerate(idx):
+        for name in flagged:
+            j = idx[n - 1 - k]
+            r.mark(
+                i,
+                f"{name} {_REVERSED_REASON}, see findings): reversed, this row would read "
+                f"{r.frame[name].iloc[j]:g}, printed in row {r.order[j]:g}",
+            )
+
+
 def _check_reversals(r: _Rows) -> pd.DataFrame:
     """Check (6): columns printed in reverse order within their block.
 
@@ -281,48 +330,7 @@ def _check_reversals(r: _Rows) -> pd.DataFrame:
                 (b, _judge(r, idx, name, ref[b], axis[b], same, kin, freq[b] == top[group[b]]))
             )
     for b, idx in enumerate(blocks):
-        mine = [rec for j, rec in records if j == b]
-        flagged = [rec["column"] for rec in mine if rec["reversed"]]
-        if not flagged:
-            continue
-        printed_better = any(
-            np.isfinite(rec["misfit_printed"])
-            and _reads_reversed(
-                rec["column"],
-                rec["misfit_printed"],
-                rec["misfit_reversed"],
-                rec["rho_printed"],
-                rec["rho_reversed"],
-            )
-            for rec in mine
-        )
-        if len(flagged) >= INPUT_REVERSED_COLUMNS and not printed_better:
-            for rec in mine:
-                if rec["reversed"]:
-                    rec["verdict"] = "reads reversed because the input column is"
-            records.append(
-                (
-                    b,
-                    {
-                        **{k: mine[0][k] for k in _BLOCK},
-                        "column": "input_v",
-                        "axis": axis[b],
-                        "reversed": True,
-                        "verdict": f"reversed: {', '.join(flagged)} read reversed against it",
-                    },
-                )
-            )
-            flagged = ["input_v"]
-        r.reversed[idx] = ",".join(flagged)
-        n = len(idx)
-        for k, i in enumerate(idx):
-            for name in flagged:
-                j = idx[n - 1 - k]
-                r.mark(
-                    i,
-                    f"{name} {_REVERSED_REASON}, see findings): reversed, this row would read "
-                    f"{r.frame[name].iloc[j]:g}, printed in row {r.order[j]:g}",
-                )
+        _mark_reversed(r, b, idx, axis[b], records)
     order = {c: k for k, c in enumerate((*REVERSIBLE, "input_v"))}
     records.sort(key=lambda x: (x[0], order[x[1]["column"]]))
     return pd.DataFrame([rec for _, rec in records], columns=_REVERSAL_COLUMNS)
