@@ -100,13 +100,21 @@ def test_the_audit_of_a_users_csv_prints_only_what_applies(user_csv):
 
 
 # ------------------------------------------------------------------ a closed pipe
+def _terminal_env() -> dict:
+    """The environment of a user's shell: stdout buffered as Python buffers a pipe (without
+    PYTHONUNBUFFERED, a short output waits in the buffer for the interpreter's last flush),
+    the checkout's package first."""
+    path = os.pathsep.join(filter(None, (CHECKOUT, os.environ.get("PYTHONPATH"))))
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    return {**env, "PYTHONWARNINGS": "ignore", "PYTHONPATH": path}
+
+
 def _with_reader_gone(*args, timeout=300):
     """``fitdf ARGS`` writing into a pipe whose reader has already gone (the end of
     ``| head -1``, without the race: every write meets a closed pipe)."""
     read, write = os.pipe()
     os.close(read)
-    path = os.pathsep.join(filter(None, (CHECKOUT, os.environ.get("PYTHONPATH"))))
-    env = {**os.environ, "PYTHONWARNINGS": "ignore", "PYTHONPATH": path}
+    env = _terminal_env()
     try:
         proc = subprocess.run(
             [FITDF, *args],
@@ -128,6 +136,7 @@ def _with_reader_gone(*args, timeout=300):
         ("datasets",),
         ("models",),
         ("fit", "--help"),
+        ("--version",),  # (a short text: left in the buffer for the last flush)
         ("fit", "B.3", *FAST, "--quiet"),
     ],
 )
@@ -141,10 +150,8 @@ def test_a_closed_pipe_is_a_normal_exit(args):
 def test_head_dash_1_prints_the_first_line_and_exits_0():
     """As a user types it."""
     shell = f"set -o pipefail; '{FITDF}' audit B.5 | head -1"
-    path = os.pathsep.join(filter(None, (CHECKOUT, os.environ.get("PYTHONPATH"))))
-    env = {**os.environ, "PYTHONWARNINGS": "ignore", "PYTHONPATH": path}
     proc = subprocess.run(
-        ["bash", "-c", shell], capture_output=True, text=True, timeout=300, env=env
+        ["bash", "-c", shell], capture_output=True, text=True, timeout=300, env=_terminal_env()
     )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout == "92 rows, 22 flagged, 3 excluded by default\n"
