@@ -322,6 +322,10 @@ def _integrate(x, B, V, R, w, phi0, n, dsig, wave, c_cl=0.0, c_ex=0.0):
     (the branch's amplitude, whose root the search finds), ``i_peak`` and ``wave`` the total
     current's. With both 0 the static step runs unchanged (bit-identical results) and
     ``i_peak = i_max``.
+
+    One compiled loop, long by design: the step's state (the two previous points of BDF2,
+    the table cell, the rate-dependent terms, the peak held) lives in locals for the whole
+    half period; split into numba functions, every step of the hot loop would pass it on.
     """
     M = x.shape[0]
     h0 = np.pi / n
@@ -630,6 +634,10 @@ def secant_update(act, xs, gs, ds, it, X, G, D, F, C, done, tol, max_step, df_to
     of ``G`` (NaN: none), the slope followed. ``C`` (``(m, 3)`` complex): DF at the root,
     DF slope, the previous stage's DF slope (NaN: none). ``done`` is set where converged.
     ``confirm``: whether the last two evaluations' slope must be confirmed.
+
+    Long by design: one compiled pass over the points applies :func:`_search`'s rules in
+    their order to each point's slots, which it updates in place; the rules read one another's
+    results for the same point within the step.
     """
     for k in range(act.shape[0]):
         p = act[k]
