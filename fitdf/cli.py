@@ -25,7 +25,7 @@ import textwrap
 import traceback
 from pathlib import Path
 
-from fitdf.cli_parser import UsageError, build_parser, validate
+from fitdf.cli_parser import DEFAULT_CHAIN, UsageError, build_parser, validate
 from fitdf.errors import FitdfError, ModelError, OptionError
 from fitdf.stop_signals import EXIT_INTERRUPTED, EXIT_TERMINATED, Terminated, stop_signals
 
@@ -76,6 +76,11 @@ def one_line(message: str) -> str:
     return _LINE_BREAKS.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), message)
 
 
+def _note(text: str) -> None:
+    """A warning or note on stderr, wrapped within 100 columns (an error stays one line)."""
+    print("\n".join(textwrap.wrap(text, 100, subsequent_indent="  ")), file=sys.stderr)
+
+
 def _emit_json(obj) -> None:
     """Print ``obj`` (already through :func:`fitdf._json.clean`) as strict JSON."""
     _out(json.dumps(obj, indent=2, allow_nan=False))
@@ -119,7 +124,6 @@ def cmd_audit(args):
 def cmd_models(args):
     from fitdf._json import clean
     from fitdf.chains import CHAINS
-    from fitdf.inference.api import DEFAULT_CHAIN
     from fitdf.models import MODELS, law_name
     from fitdf.params import DIMENSIONLESS
 
@@ -208,7 +212,7 @@ def cmd_fit(args):
     # is imported (~5 s): a bad file fails at once, naming file, row and column
     rows = [resolve_data(src, args.policy, args.source_impedance) for src in sources]
     for line in order_warnings(sources, rows, order_notes):
-        print(line, file=sys.stderr)
+        _note(line)
     return cmd_fit_checked(args, models, geometry, sources, batch, rows)
 
 
@@ -288,11 +292,10 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
 def _reused_note(args, executor, total: int) -> None:
     """The line on stderr saying how many fits were read from the cache, if any."""
     if executor.reused and not args.quiet:
-        print(
+        _note(
             f"fitdf {args.command}: {len(executor.reused)} of {total} fits read from "
             f"{args.job_caches[0].root}, kept by an earlier run of the same rows, options, code "
-            "and machine (--no-cache computes them again)",
-            file=sys.stderr,
+            "and machine (--no-cache computes them again)"
         )
 
 

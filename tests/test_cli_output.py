@@ -9,17 +9,20 @@ needs a process of its own.
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
 
+import pandas as pd
 import pytest
 from test_cli import CHECKOUT, FITDF, assert_user_error, run_here
 
 import fitdf.loop.fitted
 from fitdf.data.cores import CoreGeometry
 from fitdf.errors import OptionError
-from fitdf.inference import ranking
+from fitdf.inference import convergence, ranking, selection
+from fitdf.inference.presentation import checks_text, ranking_text
 from fitdf.models import get_model, law_name
 
 WIDTH = 100
@@ -259,3 +262,74 @@ def test_the_python_module_entry_points_still_run():
             [sys.executable, "-m", module, "--version"], capture_output=True, text=True, timeout=120
         )
         assert proc.returncode == 0 and proc.stdout.startswith("fitdf "), proc.stderr
+
+
+# ------------------------------------------------------------------ the job cache
+def test_limit_cycle_keeps_its_fits_as_fit_does(tmp_path):
+    """The second call reads the fit from the cache (the same numbers, to the bit), and says
+    so on stderr within 100 columns; --no-cache computes it again and says nothing."""
+    args = ("limit-cycle", "B.1", "--plant", PLANT, "--gain", "100", "500")
+    args += ("--model", "constant_width", "--chain", "winding", "--quiet", "--json")
+    first = run_here(*args, "--cache", str(tmp_path))
+    again = run_here(*args, "--cache", str(tmp_path))
+    assert first.returncode == again.returncode == 0, first.stderr
+    assert first.stdout == again.stdout  # (JSON: every number)
+    assert first.stderr == again.stderr == ""  # (--quiet: no note)
+    loud = run_here(*args[:-2], "--json", "--cache", str(tmp_path))
+    note = " ".join(loud.stderr.split())
+    assert "fitdf limit-cycle: 1 of 1 fits read from" in note and str(tmp_path) in note
+    assert max(map(len, loud.stderr.splitlines())) <= WIDTH
+    fresh = run_here(*args[:-2], "--json", "--no-cache")
+    assert fresh.stderr == "" and fresh.stdout == first.stdout
+
+
+# ------------------------------------------------------------------ rules rendered once
+def test_the_rules_the_text_states_are_rendered_from_their_constants():
+    """The tie rules and the convergence rules, as the ranking's legend, the posterior checks
+    and ``fit --help`` state them, are the thresholds that apply them."""
+    assert selection.TIE_RULES == {
+        "lsq": f"AICc within {selection.TIE_AICC:g}",
+        "mcmc": f"elpd_loo within {selection.TIE_LOO_SE:g} standard errors of the difference",
+        "nested": f"2 ln B < {selection.TIE_TWO_LN_B:g} (a Bayes factor below "
+        f"{math.exp(selection.TIE_TWO_LN_B / 2):.3g})",
+    }
+    assert convergence.CONVERGED == {
+        "nested": f">= {convergence.MIN_EFFECTIVE} effective draws, evidence error <= "
+        f"{convergence.MAX_LOG_EVIDENCE_ERROR:g}",
+        "mcmc": f"{convergence.MIN_STEPS_OVER_TAU} autocorrelation times, R-hat < "
+        f"{convergence.RHAT_MAX:g}, bulk ESS >= {convergence.MIN_ESS}",
+    }
+    table = pd.DataFrame(
+        [
+            {"rank": 1, "model": "a", "chain": "voltage", "method": m, "n_params": 3}
+            for m in ("lsq", "nested")
+        ]
+    )
+    legend = " ".join(ranking_text(table).split())
+    assert f"least squares: {selection.TIE_RULES['lsq']}" in legend
+    assert f"nested sampling: {selection.TIE_RULES['nested']}" in legend
+
+    class Fit:  # the fields checks_text reads
+        model, chain, method = "a", "voltage", "nested"
+        diagnostics = {
+            "converged": True,
+            "log_evidence": -12.345,
+            "log_evidence_error": 0.123,
+            "n_effective": 512.0,
+            "n_likelihood_evaluations": 40000.0,
+        }
+
+    text = checks_text([Fit()])
+    assert f"(converged: {convergence.CONVERGED['nested']}):" in " ".join(text.split())
+    assert text.splitlines()[-1].split() == [
+        "a",
+        "voltage",
+        "yes",
+        "-12.35",
+        "+-",
+        "0.12",
+        "512",
+        "40000",
+    ]
+    helped = " ".join(run_here("fit", "--help").stdout.split())
+    assert convergence.CONVERGED["mcmc"] in helped

@@ -167,9 +167,12 @@ class FitResult:
             return f"{value:.4g}" if np.isfinite(value) else "n/a"
 
         m = self.metrics
-        lines = [
+        head = (
             f"{self.model} + {self.chain} chain ({self.method}) on {self.label}: "
-            f"{m['n_points']} rows, {m['n_params']} parameters",
+            f"{m['n_points']} rows, {m['n_params']} parameters"
+        )
+        lines = [
+            *textwrap.wrap(head, width, subsequent_indent="  "),
             f"  RMS complex {m['rms_complex']:.4f}  magnitude {m['rms_magnitude']:.4f}  "
             f"phase {m['rms_phase_deg']:.2f} deg  redchi {m['redchi']:.3g}  AICc {m['aicc']:.1f}",
         ]
