@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import textwrap
 
-__all__ = ["TEXT_WIDTH", "cell", "table_lines", "close_table_lines", "wrap", "cut", "widest"]
+__all__ = ["TEXT_WIDTH", "cell", "table_lines", "close_table_lines", "wrap", "cut"]
 
 #: The longest line a command prints by default (its ``--wide`` prints every column).
 TEXT_WIDTH = 100
@@ -53,8 +53,3 @@ def wrap(text: str, width: int = TEXT_WIDTH, indent: str = "", more: str | None 
 def cut(line: str, width: int = TEXT_WIDTH) -> str:
     """``line`` cut to ``width`` columns, ending in ``...`` when cut."""
     return line if len(line) <= width else line[: width - 3] + "..."
-
-
-def widest(text: str) -> int:
-    """The longest line of ``text`` (0 for none)."""
-    return max(map(len, text.splitlines()), default=0)
