@@ -45,9 +45,13 @@ def close_table_lines(headers, rows, left=(), width: int = TEXT_WIDTH) -> list[s
 
 def wrap(text: str, width: int = TEXT_WIDTH, indent: str = "", more: str | None = None) -> list:
     """``text`` wrapped at ``width``: the first line indented by ``indent``, the others by
-    ``more`` (default: ``indent``)."""
+    ``more`` (default: ``indent``). Lines break at spaces only, never inside a file's path
+    or a hyphenated word."""
     rest = indent if more is None else more
-    return textwrap.wrap(text, width, initial_indent=indent, subsequent_indent=rest) or [indent]
+    lines = textwrap.wrap(
+        text, width, initial_indent=indent, subsequent_indent=rest, break_on_hyphens=False
+    )
+    return lines or [indent]
 
 
 def cut(line: str, width: int = TEXT_WIDTH) -> str:

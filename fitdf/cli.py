@@ -78,7 +78,8 @@ def one_line(message: str) -> str:
 
 def _note(text: str) -> None:
     """A warning or note on stderr, wrapped within 100 columns (an error stays one line)."""
-    print("\n".join(textwrap.wrap(text, 100, subsequent_indent="  ")), file=sys.stderr)
+    lines = textwrap.wrap(text, 100, subsequent_indent="  ", break_on_hyphens=False)
+    print("\n".join(lines), file=sys.stderr)
 
 
 def _emit_json(obj) -> None:

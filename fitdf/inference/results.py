@@ -172,7 +172,7 @@ class FitResult:
             f"{m['n_points']} rows, {m['n_params']} parameters"
         )
         lines = [
-            *textwrap.wrap(head, width, subsequent_indent="  "),
+            *textwrap.wrap(head, width, subsequent_indent="  ", break_on_hyphens=False),
             f"  RMS complex {m['rms_complex']:.4f}  magnitude {m['rms_magnitude']:.4f}  "
             f"phase {m['rms_phase_deg']:.2f} deg  redchi {m['redchi']:.3g}  AICc {m['aicc']:.1f}",
         ]
