@@ -117,7 +117,7 @@ def test_jobs_from_the_cache_are_done_but_not_measured():
 def test_the_display_names_the_phase_and_the_basis_of_its_estimate():
     out, clock = io.StringIO(), Clock()
     phases = [Phase("least squares", (("fit", 10.0),)), Phase("figures", (("fit", 4.0),))]
-    with _display(phases, clock=clock, file=out, refresh_s=0) as p:
+    with _display(phases, clock=clock, file=out, refresh_s=0, width=200) as p:
         p.begin("least squares", ["a"])
         p.started("a")
         clock.now = 30.0
@@ -131,8 +131,33 @@ def test_the_display_names_the_phase_and_the_basis_of_its_estimate():
     )
     assert "2/2 figures: 0/1 jobs" in text
     # after the fit took 3 times its expected 10 s: the 4 s figure job is expected at 12 s
-    assert "1/2 least squares: 1/1 jobs done in 30 s; the rest: about 12 s" in text
-    assert "this machine: 3.00 x the committed job times, from 1 job" in text
+    words = " ".join(text.split())  # (a phase's last line is wrapped)
+    assert "1/2 least squares: 1/1 jobs done in 30 s; the rest: about 12 s" in words
+    assert "this machine: 3.00 x the committed job times, from 1 job" in words
+
+
+def test_the_display_fits_its_width_and_wraps_nothing():
+    """Every line of the display (the bar as each redraw leaves it, and each phase's last
+    line) within its width: a longer bar wraps, and every redraw leaves a line behind. The
+    basis of the estimate leaves the bar when the bar has no room for it."""
+    for width in (100, 60):
+        out, clock = io.StringIO(), Clock()
+        phases = [Phase("least squares", (("fit", 10.0),)), Phase("figures", (("fit", 4.0),))]
+        with _display(phases, clock=clock, file=out, refresh_s=0, width=width) as p:
+            p.begin("least squares", ["a"])
+            p.started("a")
+            clock.now = 30.0
+            p.finished("a", 30.0)
+            p.begin("figures", ["c"])
+            p.started("c")
+        lines = [part for line in out.getvalue().split("\n") for part in line.split("\r")]
+        assert max(map(len, lines)) < width, max(lines, key=len)
+        # (at 100 columns the phase and its jobs fit; a narrower bar is cut, never wrapped)
+        assert ("| 1/2 least squares: 0/1 jobs" in out.getvalue()) == (width == 100)
+        basis = "this machine: 3.00 x the committed job times"
+        assert basis in " ".join(out.getvalue().split())  # (in the phase's last line)
+        bars = [line for line in lines if "elapsed, about" in line]
+        assert bars and all(basis not in line for line in bars)  # (no room in the bar)
 
 
 def test_a_run_stopped_early_is_not_reported_done():

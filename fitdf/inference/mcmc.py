@@ -60,6 +60,7 @@ from fitdf.inference.caveats import (
     noise_bound_warnings,
     posterior_bound_warnings,
 )
+from fitdf.inference.convergence import MIN_ESS, MIN_STEPS_OVER_TAU, RHAT_MAX
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
 from fitdf.inference.problem import FitProblem
@@ -210,15 +211,6 @@ def _initial_ball(problem, lsq: FitResult, n_walkers, rng, bounds):
     scale[P:] = 0.02
     p0 = centre + scale * rng.standard_normal((n_walkers, P + 2))
     return np.clip(p0, lo + 1e-9 * width, hi - 1e-9 * width)
-
-
-#: R-hat at or above this is reported as not converged (rank-normalised split R-hat, walkers
-#: as chains; Vehtari et al. 2021 recommend 1.01).
-RHAT_MAX = 1.01
-#: The chain must be at least this many integrated autocorrelation times long.
-MIN_STEPS_OVER_TAU = 50
-#: ... and every parameter's bulk effective sample size at least this.
-MIN_ESS = 400
 
 
 def _as_arviz(chain, names) -> dict:

@@ -86,6 +86,7 @@ from fitdf.inference.caveats import (
     noise_bound_warnings,
     posterior_bound_warnings,
 )
+from fitdf.inference.convergence import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.inference.mcmc import loo_record
 from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
@@ -109,10 +110,6 @@ __all__ = [
     "SAMPLERS",
 ]
 
-#: The convergence rule: at least this many effective draws (Kish) ...
-MIN_EFFECTIVE = 400
-#: ... and an error of the log-evidence of at most this.
-MAX_LOG_EVIDENCE_ERROR = 0.3
 #: The samplers :func:`fit_nested` runs (``benchmarks/compare_samplers.py`` compares others).
 SAMPLERS = ("nautilus",)
 #: nautilus's live points and networks per bound, chosen by ``benchmarks/compare_samplers.py``:
