@@ -1,8 +1,8 @@
 """The package's architecture, enforced: layers, no hidden imports, a public API that always works.
 
 The layer order lives in pyproject.toml (``[tool.importlinter]``): cli > report > plots >
-thesis > loop > inference > chains > models > describing | data > params | _json | _arviz |
-executor > errors | jobcache > machine.
+limit_cycle_tables > loop > inference > chains > models > describing | data > params | _json |
+_arviz | executor > errors | jobcache > machine.
 """
 
 from __future__ import annotations

@@ -18,11 +18,11 @@ import fitdf.report.block_outline as block_outline
 import fitdf.report.outline as outline
 import fitdf.report.render as render
 import fitdf.report.sections as sections
+from fitdf.limit_cycle_tables import limit_cycle_statements
 from fitdf.machine import machine_record, same_machine
 from fitdf.plots.summary import CAPTION, constant_rows, plot_summary, residual_grid
 from fitdf.report import costs
 from fitdf.report.build import BLOCKS, ReportSettings, generate_report
-from fitdf.thesis import limit_cycle_statements
 
 TESTS = Path(__file__).resolve().parent
 REPO = TESTS.parent
@@ -255,7 +255,7 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
         )
     assert r["blocks"]["permalloy-joint"]["source_impedance_ohm"] == [0.0, 600.0]
     assert r["cross_impedance"][0]["rows"][0]["predict_rms_complex"] > 0
-    lc = r["limit_cycles"]  # the real comparison (fitdf.thesis), on the tiny settings
+    lc = r["limit_cycles"]  # the real comparison (fitdf.limit_cycle_tables), on the tiny settings
     assert lc["available"] and "error" not in lc and lc["figure"]
     assert len(lc["rows"]) == 2 * 38 and {row["table"] for row in lc["rows"]} == {
         "B.1",

@@ -22,7 +22,7 @@ from __future__ import annotations
 import statistics
 
 from fitdf.inference.evidence import SAMPLED_FACTORS
-from fitdf.plots.thesis import THESIS_GRAPHS
+from fitdf.plots.thesis_graphs import THESIS_GRAPHS
 from fitdf.report.progress import Phase, duration_text, schedule_length
 
 __all__ = [

@@ -519,5 +519,5 @@ def _audit_findings(audit) -> list[str]:
 
 def _limit_finding(lc) -> str | None:
     """The limit-cycle comparison's own one-line finding (``attrs.statements.finding``, made
-    by :func:`fitdf.thesis.limit_cycle_statements` from the record's fields)."""
+    by :func:`fitdf.limit_cycle_tables.limit_cycle_statements` from the record's fields)."""
     return ((lc.get("attrs") or {}).get("statements") or {}).get("finding")

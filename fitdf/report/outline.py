@@ -369,7 +369,9 @@ def _audit_blocks(res):
 def _thesis_blocks(res):
     out = [
         H(2, _THESIS),
-        P("Redrawn from fitdf's models with the thesis's k = 1, c = 5 (`fitdf.plots.thesis`)."),
+        P(
+            "Redrawn from fitdf's models with the thesis's k = 1, c = 5 (`fitdf.plots.thesis_graphs`)."
+        ),
     ]
     for g in res["thesis_graphs"]:
         out += [P(f"**Graph {g['graph']}** -- {g['title']}"), IMG(g["path"], f"Graph {g['graph']}")]

@@ -23,6 +23,7 @@ from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import ranking_table
 from fitdf.inference.selection import best_result, select
 from fitdf.inference.small_signal import small_signal_scan, verdict
+from fitdf.limit_cycle_tables import thesis_limit_cycle_comparison
 from fitdf.models import get_model
 from fitdf.plots import (
     plot_corner,
@@ -34,8 +35,7 @@ from fitdf.plots import (
 )
 from fitdf.plots.limit_cycles import plot_thesis_comparison
 from fitdf.plots.summary import plot_summary
-from fitdf.plots.thesis import THESIS_GRAPHS
-from fitdf.thesis import thesis_limit_cycle_comparison
+from fitdf.plots.thesis_graphs import THESIS_GRAPHS
 
 __all__ = [
     "block_record",
@@ -554,7 +554,7 @@ def limit_cycles_switched_off() -> dict:
 
 
 def limit_cycle_section(seed, models, n_starts, candidates, figdir) -> dict:
-    """Tables 5.1/5.2 against the limit cycles predicted from the fits (:mod:`fitdf.thesis`):
+    """Tables 5.1/5.2 against the limit cycles predicted from the fits (:mod:`fitdf.limit_cycle_tables`):
     unscaled and with held-out scales, by harmonic balance and simulated in time.
 
     ``models`` are the lowest-AICc models of the blocks B.1, B.3, B.2, B.5; the
