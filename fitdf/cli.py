@@ -843,7 +843,8 @@ def _material_lines(result) -> str:
 
 
 def cmd_report(args):
-    from fitdf.report.build import ReportSettings, generate_report, job_cache
+    from fitdf.report.build import generate_report, job_cache
+    from fitdf.report.settings import ReportSettings
 
     settings = ReportSettings.for_run(
         args.quick, full=args.full, scheduler=args.scheduler, compare_chain=args.compare_chain
@@ -859,6 +860,7 @@ def cmd_report(args):
             progress=not args.quiet,
             settings=settings,
             cache=cache,
+            replace=args.replace,
         )
     except OSError as exc:
         # the folder passed the checks before the run, and writing it failed after (a full
@@ -1158,7 +1160,17 @@ def build_parser() -> argparse.ArgumentParser:
         json=False,
     )
     sp.add_argument(
-        "--out", default="reports", metavar="DIR", help="output folder (default: reports)"
+        "--out",
+        default="fitdf-report",
+        metavar="DIR",
+        help="output folder (default: fitdf-report in the current folder); a report already "
+        "there is replaced only by a run that computes at least what it holds",
+    )
+    sp.add_argument(
+        "--replace",
+        action="store_true",
+        help="replace the report in --out even when it holds more than this run computes "
+        "(a --full report by a --quick run, say)",
     )
     sp.add_argument("--seed", type=seed_value, default=0, help=SEED_HELP)
     run = sp.add_mutually_exclusive_group()

@@ -30,9 +30,9 @@ _BLOCK = {
     "aicc": "blocks/{block}/ranking_lsq/*/aicc",
 }
 _BLOCK_POST = {
-    "post_models": "blocks/{block}/ranking_mcmc/*/model",
-    "log_evidence": "blocks/{block}/ranking_mcmc/*/log_evidence",
-    "looic": "blocks/{block}/ranking_mcmc/*/looic",
+    "post_models": "blocks/{block}/ranking_posterior/*/model",
+    "log_evidence": "blocks/{block}/ranking_posterior/*/log_evidence",
+    "looic": "blocks/{block}/ranking_posterior/*/looic",
 }
 
 
@@ -92,8 +92,8 @@ def _best(title, rms, n_params, df, models, aicc, block):
 
 
 _LOO_NUMBERS = {
-    "elpd_diff": "blocks/{block}/ranking_mcmc/*/elpd_loo_diff",
-    "elpd_dse": "blocks/{block}/ranking_mcmc/*/elpd_loo_dse",
+    "elpd_diff": "blocks/{block}/ranking_posterior/*/elpd_loo_diff",
+    "elpd_dse": "blocks/{block}/ranking_posterior/*/elpd_loo_dse",
 }
 
 
@@ -263,12 +263,12 @@ def _failures(tables, worst, inputs, leads):
     return say(template + ".", **values)
 
 
-_DIAGNOSTICS = "blocks/*/fits_mcmc/*/diagnostics/"
+_DIAGNOSTICS = "blocks/*/fits_posterior/*/diagnostics/"
 
 
 @rule(
     "findings.posteriors",
-    method="blocks/*/fits_mcmc/*/method",
+    method="blocks/*/fits_posterior/*/method",
     converged=_DIAGNOSTICS + "converged",
     evaluations=_DIAGNOSTICS + "n_likelihood_evaluations",
     evidence_error=_DIAGNOSTICS + "log_evidence_error",
