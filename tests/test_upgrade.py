@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from fitdf.report.claims import claim, rule, say
 from fitdf.report.upgrade import SCHEMA_VERSION, read_results, upgrade, upgrade_path
 
 COMMITTED = Path(__file__).resolve().parents[1] / "reports" / "results.json"
@@ -176,3 +177,18 @@ def test_the_comparison_script_compares_an_old_file_with_a_new_one(tmp_path):
     changed = compare()
     assert changed.returncode == 1
     assert "/blocks/B.1/ranking_posterior[0]/looic: 1.5 != 1.6" in changed.stdout
+
+
+@rule("test.upgrade.sampled", models="blocks/{block}/ranking_posterior/*/model")
+def _sampled(models, block):
+    return say("{n} sampled on {block}.", n=len(models or []), block=block)
+
+
+def test_a_claim_reads_an_old_record_by_the_current_paths():
+    """A rule reads version 2's paths; given a version 1 record, the claim reads it as
+    version 2 (a claim made again from a report written before the renames)."""
+    old = _v1_record()
+    said = claim("test.upgrade.sampled", old, block="B.1")
+    assert said["text"] == "1 sampled on B.1."
+    assert said["fields"] == {"models": "blocks/B.1/ranking_posterior/*/model"}
+    assert said == claim("test.upgrade.sampled", upgrade(old), block="B.1")
