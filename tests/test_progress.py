@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from fitdf.executor import Executor
-from fitdf.report import costs
+from fitdf.report import costs, refresh_costs
 from fitdf.report.build import printed_blocks
 from fitdf.report.costs import phase_labels
 from fitdf.report.progress import Phase, RunProgress, duration_text, schedule_length
@@ -291,7 +291,7 @@ def test_the_cost_table_is_the_committed_reports():
     if committed["run"]["total_s"] != costs.COMMITTED_RUN["total_s"]:
         pytest.skip(
             "reports/results.json was regenerated: refresh fitdf/report/committed_costs.json "
-            "with `python -m fitdf.report.costs reports`"
+            "with `python -m fitdf.report.refresh_costs reports`"
         )
     assert committed == costs.COMMITTED
     assert set(costs.COMMITTED_SETTINGS) == set(costs.COST_SETTINGS)
@@ -362,12 +362,12 @@ def test_the_cost_table_counts_the_runs_a_posterior_job_sampled():
 
 
 def test_the_refresh_command_writes_the_file_the_estimates_read(tmp_path, monkeypatch, capsys):
-    """``python -m fitdf.report.costs REPORT`` writes the record of REPORT's results.json,
+    """``python -m fitdf.report.refresh_costs REPORT`` writes the record of REPORT's results.json,
     which is what the package reads as the committed costs."""
     results = _costed(timing=dict(_costed()["timing"], cores=4))
     (tmp_path / "results.json").write_text(json.dumps(results))
     out = tmp_path / "committed_costs.json"
-    assert costs.main([str(tmp_path), "--out", str(out)]) == 0
+    assert refresh_costs.main([str(tmp_path), "--out", str(out)]) == 0
     written = json.loads(out.read_text())
     assert written == costs.cost_record(results) and written["run"]["cores"] == 4
     assert "4 jobs of `fitdf report --full`, 1235 s on 2 workers" in capsys.readouterr().out

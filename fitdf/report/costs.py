@@ -13,8 +13,8 @@ Expected seconds
 The file, and refreshing it
     Every report run writes the same record of its own jobs into its folder as
     ``costs.json`` (:func:`cost_record`). After the committed report is regenerated, the
-    package's copy is refreshed from it with ``python -m fitdf.report.costs reports``
-    (:func:`main`); tests/test_progress.py says when it is out of date.
+    package's copy is refreshed from it with ``python -m fitdf.report.refresh_costs reports``
+    (:mod:`fitdf.report.refresh_costs`); tests/test_progress.py says when it is out of date.
 Jobs not known yet
     The second phase's jobs depend on the least-squares ranking (posteriors, cross-validation
     and cross-impedance for each block's best laws): :func:`unknown_laws` plans ``n`` of them
@@ -23,16 +23,14 @@ Jobs not known yet
 
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
-import sys
 from pathlib import Path
 
 from fitdf.inference.evidence import SAMPLED_FACTORS
 from fitdf.plots.thesis_graphs import THESIS_GRAPHS
 from fitdf.report.progress import Phase, duration_text, schedule_length
-from fitdf.report.upgrade import read_results, upgrade
+from fitdf.report.upgrade import upgrade
 
 __all__ = [
     "COMMITTED",
@@ -410,27 +408,3 @@ def start_line(what: list[str], estimate_s: float, workers: int, *, rough=False,
     if cached:
         text += "; less for the jobs an earlier run kept in the cache"
     return text + ". This machine's estimate follows as the first jobs finish."
-
-
-def main(argv=None) -> int:
-    """``python -m fitdf.report.costs REPORT``: refresh the package's copy of the committed
-    costs (``committed_costs.json``) from the report in the folder ``REPORT`` (its
-    ``results.json``)."""
-    parser = argparse.ArgumentParser(prog="python -m fitdf.report.costs", description=main.__doc__)
-    parser.add_argument("report", type=Path, help="the committed report's folder (reports)")
-    parser.add_argument(
-        "--out", type=Path, default=COMMITTED_FILE, help="where to write (default: the package's)"
-    )
-    args = parser.parse_args(argv)
-    record = cost_record(read_results(args.report), known=COMMITTED_RUN)
-    args.out.write_text(json.dumps(record, indent=1, allow_nan=False) + "\n", encoding="utf-8")
-    run = record["run"]
-    print(
-        f"{args.out}: {len(record['jobs_s'])} jobs of `{run['command']}`, "
-        f"{run['total_s']} s on {run['workers']} workers ({run['cpu']})"
-    )
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
