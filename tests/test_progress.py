@@ -250,18 +250,18 @@ def test_the_committed_run_is_planned_as_it_ran():
     assert total == pytest.approx(costs.COMMITTED_RUN["total_s"], rel=0.03)
     assert not costs.rough(settings) and costs.rough(ReportSettings.for_run(quick=True))
     line = costs.start_line(what, total, 2)
-    assert "About 69 min with 2 workers" in line and "69 min for `fitdf report --full`" in line
+    assert "About 74 min with 2 workers" in line and "74 min for `fitdf report --full`" in line
     assert "first jobs finish" in line
     # the default run, from the same jobs: its six posteriors are among them
     default, _ = _plan(ReportSettings.for_run())
     assert [len(p.planned) for p in default] == [56, 47, 12]
-    assert 15 * 60 < costs.estimate(default, 2) < 20 * 60
+    assert 15 * 60 < costs.estimate(default, 2) < 25 * 60  # about 20 min
 
 
 def test_expected_seconds_of_jobs_the_table_lacks():
     # a job of the committed report: its own time; another law: its kind's mean on the block
-    assert costs.expected_seconds(("nested", "B.4", "preisach")) == 273.13
-    b4 = [273.13, 135.24, 52.98]
+    assert costs.expected_seconds(("nested", "B.4", "preisach")) == 270.0
+    b4 = [270.0, 165.31, 113.76]
     assert costs.expected_seconds(("nested", "B.4", "rayleigh")) == pytest.approx(sum(b4) / 3)
     assert costs.unknown_laws("nested", "B.4", 3) == [("nested", s) for s in b4]
     # a kind the committed report did not run: a multiple of the block's least-squares fits
