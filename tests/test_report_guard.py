@@ -155,7 +155,7 @@ def test_the_command_line_refuses_in_one_line_and_says_where_a_report_goes(
         cli.main(["report", "--quick", "--out", str(out), "--no-cache", "--quiet", "--replace"])
     # by default a report goes into fitdf-report/ of the current folder, not a clone's reports/
     monkeypatch.chdir(tmp_path)
-    assert cli.build_parser().parse_args(["report"]).out == "fitdf-report"
+    assert cli.build_parser().parse_args(["report"]).out == build.DEFAULT_OUT == "fitdf-report"
     with pytest.raises(Computed):
         cli.main(["report", "--quick", "--no-cache", "--quiet"])
     assert (out / "README.md").read_text() == "the committed report\n"
