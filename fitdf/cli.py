@@ -301,7 +301,8 @@ def _reused_note(args, executor, total: int) -> None:
 
 
 def cmd_report(args):
-    from fitdf.report.build import ReportSettings, generate_report, job_cache
+    from fitdf.report.build import generate_report, job_cache
+    from fitdf.report.settings import ReportSettings
 
     settings = ReportSettings.for_run(
         args.quick, full=args.full, scheduler=args.scheduler, compare_chain=args.compare_chain
@@ -317,6 +318,7 @@ def cmd_report(args):
             progress=not args.quiet,
             settings=settings,
             cache=cache,
+            replace=args.replace,
         )
     except OSError as exc:
         # the folder passed the checks before the run, and writing it failed after (a full

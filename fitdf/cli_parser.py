@@ -523,7 +523,17 @@ def _report_parser(sub) -> None:
         json=False,
     )
     sp.add_argument(
-        "--out", default="reports", metavar="DIR", help="output folder (default: reports)"
+        "--out",
+        default="fitdf-report",
+        metavar="DIR",
+        help="output folder (default: fitdf-report in the current folder); a report already "
+        "there is replaced only by a run that computes at least what it holds",
+    )
+    sp.add_argument(
+        "--replace",
+        action="store_true",
+        help="replace the report in --out even when it holds more than this run computes "
+        "(a --full report by a --quick run, say)",
     )
     sp.add_argument("--seed", type=seed_value, default=0, help=SEED_HELP)
     run = sp.add_mutually_exclusive_group()

@@ -61,14 +61,6 @@ def seconds(figure: str) -> tuple[float, float]:
     return total, half
 
 
-def setting(settings, *names):
-    """The first of ``names`` that ``settings`` has (a report setting under its name)."""
-    for name in names:
-        if hasattr(settings, name):
-            return getattr(settings, name)
-    raise AttributeError(f"ReportSettings has none of {names}")
-
-
 # ------------------------------------------------------------------ the :value: role
 def test_the_value_role_writes_the_codes_constants():
     from fitdf.data.cores import MATERIAL_LIMITS, STACKING_FACTOR_RANGE
@@ -89,7 +81,7 @@ def test_the_value_role_writes_the_codes_constants():
     assert MATERIAL_LIMITS["inductance"][3] == 3e6
     assert fitdf_values.render("fitdf.data.cores.MATERIAL_LIMITS[current][1]:short") == "1e-3"
     assert fitdf_values.render("fitdf.data.cores.MATERIAL_LIMITS[flux_linkage][3]:short") == "2.5"
-    assert fitdf_values.render("fitdf.thesis.summary.LEVEL_CONFIDENCE:.0%") == "95 %"
+    assert fitdf_values.render("fitdf.limit_cycle_tables.summary.LEVEL_CONFIDENCE:.0%") == "95 %"
 
 
 @pytest.mark.parametrize(
@@ -220,7 +212,7 @@ def test_the_full_reports_time_is_the_committed_reports_own():
 # ------------------------------------------------------------------ benchmarks/README.md
 def test_the_benchmarks_state_the_samplers_rules_and_settings():
     from fitdf.inference import mcmc, nested
-    from fitdf.report.build import ReportSettings
+    from fitdf.report.settings import ReportSettings
 
     bench = text("benchmarks/README.md")
     assert (
@@ -352,13 +344,13 @@ def test_the_command_line_defaults_the_inference_page_states_are_the_parsers():
 
 
 def test_the_reports_posterior_counts_the_pages_state_are_its_settings():
-    from fitdf.report.build import BLOCKS, CORE_BLOCKS, ReportSettings
+    from fitdf.report.settings import BLOCKS, CORE_BLOCKS, ReportSettings
 
     default, full = ReportSettings.for_run(), ReportSettings.for_run(full=True)
-    top = setting(default, "mcmc_top", "posterior_top")
-    full_top = setting(full, "mcmc_top", "posterior_top")
-    blocks = setting(default, "posterior_blocks")
-    assert tuple(blocks) == tuple(CORE_BLOCKS) and setting(full, "posterior_blocks") is None
+    top = default.posterior_top
+    full_top = full.posterior_top
+    blocks = default.posterior_blocks
+    assert tuple(blocks) == tuple(CORE_BLOCKS) and full.posterior_blocks is None
     words = {2: "two", 3: "three", 6: "six"}
     cluster = text("docs/user-guide/cluster.rst")
     assert f"``fitdf report`` samples {words[top * len(CORE_BLOCKS)]} posteriors" in cluster

@@ -18,7 +18,9 @@ from pathlib import Path
 
 import pytest
 
-from fitdf.report.build import ReportSettings, _remove_stale, generate_report
+from fitdf.report.build import generate_report
+from fitdf.report.output import remove_stale
+from fitdf.report.settings import ReportSettings
 
 psutil = pytest.importorskip("psutil")
 
@@ -201,7 +203,7 @@ def test_only_stale_temporary_folders_are_removed(tmp_path, monkeypatch):
     gone = [tmp_path / f".rep.tmp-{dead}-a", tmp_path / f".rep.tmp-{dead}-b"]
     for p in keep + gone:
         (p / "figures").mkdir(parents=True)
-    assert sorted(_remove_stale(out)) == sorted(gone)
+    assert sorted(remove_stale(out)) == sorted(gone)
     assert all(p.exists() for p in keep) and not any(p.exists() for p in gone)
 
     # a run does it before it starts (and removes its own folder when it fails)

@@ -221,7 +221,8 @@ def test_a_fit_asked_again_is_read_not_computed_unless_its_rows_changed(tmp_path
 def test_a_reports_cache_is_its_settings_seed_and_clusters_own(tmp_path):
     from dataclasses import replace
 
-    from fitdf.report.build import ReportSettings, job_cache
+    from fitdf.report.build import job_cache
+    from fitdf.report.settings import ReportSettings
 
     base = ReportSettings.for_run()
     folder = job_cache(tmp_path, base, 0).folder

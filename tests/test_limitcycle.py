@@ -15,6 +15,12 @@ from synthetic import synthetic_frame
 from fitdf.cli import main
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit
+from fitdf.limit_cycle_tables import (
+    THESIS_PLANT,
+    estimate_thesis_scales,
+    limit_cycle_statements,
+    thesis_limit_cycle_comparison,
+)
 from fitdf.loop import harmonic
 from fitdf.loop.fitted import fitted_limit_cycles
 from fitdf.loop.harmonic import (
@@ -28,12 +34,6 @@ from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
 from fitdf.loop.plant import as_loop_plant
 from fitdf.loop.presentation import limit_cycle_text
 from fitdf.plots.limit_cycles import plot_nyquist, plot_thesis_comparison
-from fitdf.thesis import (
-    THESIS_PLANT,
-    estimate_thesis_scales,
-    limit_cycle_statements,
-    thesis_limit_cycle_comparison,
-)
 
 PLANT = "K/(s(s+1)(s+2))"  # -180 deg at w = sqrt(2), |G(j sqrt 2)| = K / 6
 
@@ -684,7 +684,7 @@ def test_thesis_comparison_uses_the_fits_it_is_given(monkeypatch):
     """The report hands its own fits in: the comparison must not fit again and must take
     the lowest-AICc candidate of each table (the slow test below checks that the answer
     is the one fitting afresh gives)."""
-    import fitdf.thesis.comparison as thesis
+    import fitdf.limit_cycle_tables.comparison as thesis
 
     candidates = {t: [fit(t, "rayleigh", seed=0, n_starts=1)] for t in ["B.1", "B.3", "B.2", "B.5"]}
     candidates["B.1"].append(fit("B.1", "constant_width", seed=0, n_starts=1))

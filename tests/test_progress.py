@@ -12,10 +12,12 @@ from pathlib import Path
 import pytest
 
 from fitdf.executor import Executor
-from fitdf.report import costs
-from fitdf.report.build import ReportSettings, printed_blocks
+from fitdf.report import costs, refresh_costs
+from fitdf.report.build import printed_blocks
 from fitdf.report.costs import phase_labels
 from fitdf.report.progress import Phase, RunProgress, duration_text, schedule_length
+from fitdf.report.settings import ReportSettings
+from fitdf.report.upgrade import read_results
 
 COMMITTED = Path(__file__).resolve().parents[1] / "reports" / "results.json"
 
@@ -241,7 +243,7 @@ def test_a_quick_run_names_no_mcmc():
     emcee = replace(ReportSettings.for_run(), sampler="emcee")
     assert phase_labels(emcee)[1].startswith("MCMC, ")
     bare = ReportSettings(
-        mcmc_top=0,
+        posterior_top=0,
         cv_top=0,
         cross=(),
         limit_cycles=False,
@@ -317,18 +319,16 @@ def test_durations_read_as_a_person_would_say_them():
 
 @pytest.mark.skipif(not COMMITTED.exists(), reason="no committed reports/results.json")
 def test_the_cost_table_is_the_committed_reports():
-    committed = json.loads(COMMITTED.read_text())
-    if round(committed["timing"]["total_s"]) != costs.COMMITTED_RUN["total_s"]:
+    """The package's committed_costs.json is the committed report's costs (read through the
+    schema upgrade); after the report is regenerated, this says to refresh it."""
+    committed = costs.cost_record(read_results(COMMITTED), known=costs.COMMITTED_RUN)
+    if committed["run"]["total_s"] != costs.COMMITTED_RUN["total_s"]:
         pytest.skip(
-            "reports/results.json was regenerated: refresh fitdf/report/costs.py "
-            "(_TABLE = costs.table_text(results), COMMITTED_RUN)"
+            "reports/results.json was regenerated: refresh fitdf/report/committed_costs.json "
+            "with `python -m fitdf.report.refresh_costs reports`"
         )
-    assert costs._parse(costs.table_text(committed)) == costs._SECONDS
-    assert committed["timing"]["workers"] == costs.COMMITTED_RUN["workers"]
-    assert committed["timing"]["machine"]["cpu"] == costs.COMMITTED_RUN["cpu"]
-    assert {k: committed["settings"][k] for k in costs.COMMITTED_SETTINGS} == (
-        costs.COMMITTED_SETTINGS
-    )
+    assert committed == costs.COMMITTED
+    assert set(costs.COMMITTED_SETTINGS) == set(costs.COST_SETTINGS)
 
 
 def test_a_posterior_with_its_prior_sensitivity_is_planned_twice_as_long():
@@ -345,26 +345,69 @@ def test_a_posterior_with_its_prior_sensitivity_is_planned_twice_as_long():
         assert any(abs(s - n) < 1e-9 for n in nested), (s, nested)
 
 
-def test_the_cost_table_counts_the_runs_a_posterior_job_sampled():
-    """A posterior job with its prior's sensitivity enters the table at its seconds over the
-    runs it sampled: a box restricted from its draws is no run; a box without ``estimate``
-    (a record from before restriction) was sampled."""
+def _costed(fits_key="fits_posterior", **more) -> dict:
+    """A results record of four jobs, three of them posteriors on B.3, one with its prior's
+    box restricted from its draws and sampled, one with two boxes sampled (a record from
+    before restriction: no ``estimate``)."""
 
     def job(boxes):
         return {"diagnostics": {"prior_sensitivity": {"boxes": boxes}}}
 
-    results = {
+    return {
+        "settings": {"n_starts": 6, "sampler": "nested", "chain": "voltage"},
+        "run": {"run": "full", "command": "fitdf report --full"},
         "timing": {"jobs_s": {"nested B.3 preisach": 300.0, "nested B.3 cubic_hc": 300.0,
-                              "nested B.3 rayleigh": 300.0, "lsq B.3 preisach": 10.0}},
-        "blocks": {"B.3": {"fits_mcmc": {
+                              "nested B.3 rayleigh": 300.0, "B.3 preisach": 10.004},
+                   "total_s": 1234.6, "workers": 2, "machine": {"cpu": "Some CPU"}},
+        "blocks": {"B.3": {fits_key: {
             "preisach": job([{"estimate": "restricted"}, {"estimate": "sampled"}]),
             "cubic_hc": job([{}, {}]),
             "rayleigh": {"diagnostics": {}},
         }}},
+        **more,
     }  # fmt: skip
-    assert costs._parse(costs.table_text(results)) == {
+
+
+def test_the_cost_table_counts_the_runs_a_posterior_job_sampled():
+    """A posterior job with its prior's sensitivity enters the table at its seconds over the
+    runs it sampled: a box restricted from its draws is no run; a box without ``estimate``
+    (a record from before restriction) was sampled."""
+    record = costs.cost_record(_costed())
+    assert record["jobs_s"] == {
         "nested B.3 preisach": 150.0,
         "nested B.3 cubic_hc": 100.0,
         "nested B.3 rayleigh": 300.0,
-        "lsq B.3 preisach": 10.0,
+        "B.3 preisach": 10.0,
     }
+    assert record["run"] == {
+        "cpu": "Some CPU",
+        "cores": None,  # a record from before timing.cores
+        "workers": 2,
+        "total_s": 1235,
+        "command": "fitdf report --full",
+    }
+    assert record["settings"]["n_starts"] == 6 and record["settings"]["nested_live"] is None
+    assert set(record["settings"]) == set(costs.COST_SETTINGS)
+    # a record of the earlier schema (fits_mcmc) costs the same
+    assert costs.cost_record(_costed("fits_mcmc")) == record
+    known = {"cores": 8, "command": "fitdf report"}
+    assert costs.cost_record(_costed(), known=known)["run"]["cores"] == 8  # only what it lacks
+    assert costs.cost_record(_costed(), known=known)["run"]["command"] == "fitdf report --full"
+
+
+def test_the_refresh_command_writes_the_file_the_estimates_read(tmp_path, monkeypatch, capsys):
+    """``python -m fitdf.report.refresh_costs REPORT`` writes the record of REPORT's results.json,
+    which is what the package reads as the committed costs."""
+    results = _costed(timing=dict(_costed()["timing"], cores=4))
+    (tmp_path / "results.json").write_text(json.dumps(results))
+    out = tmp_path / "committed_costs.json"
+    assert refresh_costs.main([str(tmp_path), "--out", str(out)]) == 0
+    written = json.loads(out.read_text())
+    assert written == costs.cost_record(results) and written["run"]["cores"] == 4
+    assert "4 jobs of `fitdf report --full`, 1235 s on 2 workers" in capsys.readouterr().out
+    # the package's own file has that shape, and its jobs are the table the estimates read
+    assert set(costs.COMMITTED) == {"run", "settings", "jobs_s"}
+    assert (
+        costs.expected_seconds(("nested", "B.4", "preisach"))
+        == costs.COMMITTED["jobs_s"]["nested B.4 preisach"]
+    )

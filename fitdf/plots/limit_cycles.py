@@ -7,12 +7,12 @@
   measured core the loci lie in the second quadrant (phase lead, Fig 5.10).
 * :func:`plot_thesis_comparison` -- predicted vs measured amplitude and frequency
   against the system gain for Tables 5.1 and 5.2, unscaled and with the analog computer's
-  time and gain scales fitted to the other blocks (:mod:`fitdf.thesis.scales`), the
+  time and gain scales fitted to the other blocks (:mod:`fitdf.limit_cycle_tables.scales`), the
   simulated loop beside harmonic balance, the measured die-out brackets and the predicted
   critical gains.
 * :func:`plot_time_response` -- a simulated loop (:mod:`fitdf.loop.simulate`).
 
-Like :mod:`fitdf.plots.thesis`, figures are built on the Agg canvas without
+Like :mod:`fitdf.plots.thesis_graphs`, figures are built on the Agg canvas without
 ``pyplot``: no global backend switch and no figure registry that could leak (and warn,
 an error under ``filterwarnings = error``). Every function returns the Figure.
 """
@@ -268,7 +268,7 @@ def _comparison_title(df) -> str:
 
 
 def plot_thesis_comparison(df):
-    """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.thesis.thesis_limit_cycle_comparison`).
+    """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.limit_cycle_tables.thesis_limit_cycle_comparison`).
 
     Columns are the cores, rows the amplitude and the angular frequency against the system
     gain. Markers: measured (circles 0 ohm, squares 600 ohm; x: the values printed for a row

@@ -2,32 +2,41 @@
 the run's phases as planned before it starts; and the lines that open it.
 
 Expected seconds
-    :data:`_TABLE` holds every job of the committed report (``reports/results.json``,
-    ``timing.jobs_s``: the seconds each job took) as it ran there, on
-    :data:`COMMITTED_RUN`'s machine; a posterior job that sampled its prior's sensitivity
-    too is entered as one of the runs it sampled (:func:`table_text`). A job the table lacks --
-    another law, block or cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind on
-    its block (or direction), else of its kind. The report's progress display scales these by
-    what this machine measures as jobs finish (:mod:`fitdf.report.progress`). After the
-    committed report is regenerated, refresh the table and :data:`COMMITTED_RUN` with
-    :func:`table_text` (tests/test_progress.py says when they are out of date).
+    ``committed_costs.json`` (beside this module, read into :data:`COMMITTED`) holds every
+    job of the committed report as it ran there (``jobs_s``: the seconds each job took), on
+    its machine (``run``), with the settings that set what a job costs (``settings``); a
+    posterior job that sampled its prior's sensitivity too is entered as one of the runs it
+    sampled (:func:`cost_record`). A job the table lacks -- another law, block or
+    cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind
+    on its block (or direction), else of its kind. The report's progress display scales these
+    by what this machine measures as jobs finish (:mod:`fitdf.report.progress`).
+The file, and refreshing it
+    Every report run writes the same record of its own jobs into its folder as
+    ``costs.json`` (:func:`cost_record`). After the committed report is regenerated, the
+    package's copy is refreshed from it with ``python -m fitdf.report.refresh_costs reports``
+    (:mod:`fitdf.report.refresh_costs`); tests/test_progress.py says when it is out of date.
 Jobs not known yet
-    The second phase's jobs depend on the least-squares ranking (MCMC, cross-validation and
-    cross-impedance for each block's best laws): :func:`unknown_laws` plans ``n`` of them
+    The second phase's jobs depend on the least-squares ranking (posteriors, cross-validation
+    and cross-impedance for each block's best laws): :func:`unknown_laws` plans ``n`` of them
     with the committed report's jobs of that kind on that block.
 """
 
 from __future__ import annotations
 
+import json
 import statistics
+from pathlib import Path
 
 from fitdf.inference.evidence import SAMPLED_FACTORS
-from fitdf.plots.thesis import THESIS_GRAPHS
+from fitdf.plots.thesis_graphs import THESIS_GRAPHS
 from fitdf.report.progress import Phase, duration_text, schedule_length
+from fitdf.report.upgrade import upgrade
 
 __all__ = [
+    "COMMITTED",
     "COMMITTED_RUN",
     "COMMITTED_SETTINGS",
+    "COST_SETTINGS",
     "expected_seconds",
     "job_kind",
     "unknown_laws",
@@ -35,171 +44,37 @@ __all__ = [
     "phase_labels",
     "estimate",
     "rough",
-    "table_text",
+    "cost_record",
     "start_line",
 ]
 
-#: The committed report's run: where its job times were measured, and what it took in all.
-COMMITTED_RUN = {
-    "cpu": "Intel(R) Xeon(R) Processor",
-    "cores": 2,
-    "workers": 2,
-    "total_s": 4446,
-    "command": "fitdf report --full",
-}
+#: The package's copy of the committed report's ``costs.json`` (:func:`cost_record`).
+COMMITTED_FILE = Path(__file__).with_name("committed_costs.json")
 
-#: The committed report's settings that set its jobs' costs (another value: another cost).
-COMMITTED_SETTINGS = {
-    "n_starts": 6,
-    "n_steps": 300,
-    "max_steps": 4000,
-    "extend_steps": 6000,
-    "closed_form_step_factor": 3,
-    "n_walkers": None,
-    "cv_starts": None,
-    "chain": "voltage",
-    "approximate_chain": None,
-    "approximate_screen": 1,
-    "sampler": "nested",
-    "nested_live": 300,
-    "nested_networks": 1,
-    "nested_max_evaluations": 100000,
-}
+#: The settings that set what a job costs (another value: another cost).
+COST_SETTINGS = (
+    "n_starts",
+    "n_steps",
+    "max_steps",
+    "extend_steps",
+    "closed_form_step_factor",
+    "n_walkers",
+    "cv_starts",
+    "chain",
+    "approximate_chain",
+    "approximate_screen",
+    "sampler",
+    "nested_live",
+    "nested_networks",
+    "nested_max_evaluations",
+)
 
-#: Seconds of each job of the committed report, under its key joined by spaces
-#: (:func:`table_text` of its results.json).
-_TABLE = """
-deltamax-joint jiles_atherton            7.8
-B.5 jiles_atherton                       9.47
-permalloy-joint jiles_atherton           4.51
-B.4 jiles_atherton                       3.72
-deltamax-joint preisach                  16.81
-B.5 preisach                             15.29
-deltamax-joint cubic_hc                  26.35
-B.1 jiles_atherton                       2.34
-permalloy-joint preisach                 7.93
-B.3 jiles_atherton                       2.46
-B.4 preisach                             6.49
-B.2 jiles_atherton                       3.21
-B.5 cubic_hc                             27.8
-deltamax-joint rayleigh                  4.35
-permalloy-joint cubic_hc                 19.08
-B.4 cubic_hc                             18.13
-deltamax-joint constant_width            3.27
-B.5 rayleigh                             3.07
-B.1 preisach                             6.43
-B.3 preisach                             3.53
-permalloy-joint rayleigh                 2.18
-B.2 preisach                             9.33
-deltamax-joint frequency_hc              5.22
-B.5 constant_width                       4.98
-B.4 rayleigh                             1.99
-B.1 cubic_hc                             11.46
-permalloy-joint constant_width           1.6
-B.3 cubic_hc                             12.27
-B.5 frequency_hc                         3.59
-B.4 constant_width                       2.84
-B.2 cubic_hc                             11.93
-deltamax-joint proportional_width        5.15
-deltamax-joint proportional_width_fig42  6.17
-permalloy-joint frequency_hc             3.82
-B.4 frequency_hc                         2.52
-B.1 rayleigh                             0.89
-B.3 rayleigh                             1.29
-B.5 proportional_width                   3.37
-B.5 proportional_width_fig42             3.99
-B.2 rayleigh                             0.89
-B.1 constant_width                       0.96
-permalloy-joint proportional_width       3.15
-permalloy-joint proportional_width_fig42 3.11
-B.3 constant_width                       1.74
-B.4 proportional_width                   2.37
-B.4 proportional_width_fig42             3.5
-B.2 constant_width                       1.55
-B.1 frequency_hc                         1.63
-B.3 frequency_hc                         1.8
-B.2 frequency_hc                         2.21
-B.1 proportional_width                   2.32
-B.1 proportional_width_fig42             2.15
-B.3 proportional_width                   1.62
-B.3 proportional_width_fig42             2.37
-B.2 proportional_width                   1.9
-B.2 proportional_width_fig42             1.15
-limit                                    41.04
-nested permalloy-joint jiles_atherton    215.64
-nested B.4 jiles_atherton                165.31
-nested deltamax-joint preisach           618.36
-nested B.5 preisach                      444.9
-nested deltamax-joint cubic_hc           455.85
-nested B.1 jiles_atherton                108.67
-nested permalloy-joint preisach          362.98
-nested B.3 jiles_atherton                93.21
-nested B.4 preisach                      270
-nested B.2 jiles_atherton                93.31
-nested B.5 cubic_hc                      320.62
-nested B.4 cubic_hc                      113.76
-nested deltamax-joint constant_width     99.6
-nested B.1 preisach                      208.22
-nested B.3 preisach                      172.79
-nested B.2 preisach                      180.53
-nested B.5 constant_width                63.74
-nested permalloy-joint constant_width    102.51
-nested B.2 cubic_hc                      120.38
-nested B.1 rayleigh                      42.37
-nested B.3 constant_width                37.64
-dynamic permalloy-joint jiles_atherton   12.7
-dynamic B.4 jiles_atherton               9.57
-dynamic deltamax-joint preisach          45.4
-dynamic B.5 preisach                     25.54
-dynamic deltamax-joint cubic_hc          26.75
-dynamic B.1 jiles_atherton               4.81
-dynamic permalloy-joint preisach         19.48
-dynamic B.3 jiles_atherton               4.12
-dynamic B.4 preisach                     12.19
-dynamic B.2 jiles_atherton               4.06
-dynamic B.5 cubic_hc                     13.07
-dynamic B.1 preisach                     8.04
-dynamic B.3 preisach                     5.63
-dynamic B.2 preisach                     5.2
-cv permalloy-joint jiles_atherton        4.14
-cv B.4 jiles_atherton                    2.33
-cv deltamax-joint preisach               13.1
-cv B.5 preisach                          9.58
-cv deltamax-joint cubic_hc               5.87
-cv B.1 jiles_atherton                    1.4
-cv permalloy-joint preisach              7.66
-cv B.3 jiles_atherton                    0.95
-cv B.4 preisach                          3.7
-cv B.2 jiles_atherton                    1.29
-cv B.5 cubic_hc                          4.75
-cv B.1 preisach                          4.76
-cv B.3 preisach                          1.41
-cv B.2 preisach                          2.01
-printed B.5 preisach                     12.44
-printed B.5 cubic_hc                     24.08
-printed deltamax-joint preisach          14.51
-printed deltamax-joint cubic_hc          25.93
-cross permalloy 0.0 600.0 preisach       9.56
-cross permalloy 0.0 600.0 jiles_atherton 4.74
-cross permalloy 600.0 0.0 preisach       8.07
-cross permalloy 600.0 0.0 jiles_atherton 5.15
-cross deltamax 0.0 600.0 preisach        14.92
-cross deltamax 0.0 600.0 jiles_atherton  9.75
-cross deltamax 600.0 0.0 preisach        13.6
-cross deltamax 600.0 0.0 cubic_hc        21.48
-block B.1                                7.25
-block B.3                                5.68
-block B.2                                6.85
-block B.5                                9.69
-block B.4                                7.84
-block permalloy-joint                    10.59
-block deltamax-joint                     13.11
-cross permalloy 0.0 600.0                1.32
-cross permalloy 600.0 0.0                1.69
-cross deltamax 0.0 600.0                 1.89
-cross deltamax 600.0 0.0                 1.97
-thesis                                   1.47
-"""
+#: The committed report's costs: ``{"run": ..., "settings": ..., "jobs_s": ...}``.
+COMMITTED = json.loads(COMMITTED_FILE.read_text(encoding="utf-8"))
+#: Where the committed report's job times were measured, and what it took in all.
+COMMITTED_RUN = COMMITTED["run"]
+#: The committed report's settings that set its jobs' costs (:data:`COST_SETTINGS`).
+COMMITTED_SETTINGS = COMMITTED["settings"]
 
 #: First words of the keys of the jobs that are not least-squares fits.
 _KINDS = (
@@ -228,7 +103,8 @@ def _words(key) -> tuple:
 
 
 def job_kind(key) -> str:
-    """The kind of a report job: ``lsq``, ``mcmc``, ``cv``, ``approx``, ``cross``, ``limit`` or
+    """The kind of a report job: ``lsq``, ``nested`` or ``mcmc`` (a posterior by nested sampling
+    or emcee), ``cv``, ``approx``, ``dynamic``, ``printed``, ``cross``, ``limit`` or
     ``figures`` (a block's, a cross-impedance direction's or the thesis graphs')."""
     w = _words(key)
     if w[0] in ("block", "thesis") or (w[0] == "cross" and len(w) == 4):
@@ -249,12 +125,8 @@ def _group(key) -> str:
     return ""
 
 
-def _parse(text: str) -> dict:
-    rows = (line.rsplit(None, 1) for line in text.strip().splitlines())
-    return {key.strip(): float(s) for key, s in rows}
-
-
-_SECONDS = _parse(_TABLE)
+#: Seconds of each job of the committed report, by its key joined by spaces.
+_SECONDS = {key: float(s) for key, s in COMMITTED["jobs_s"].items()}
 
 
 def _mean(kind: str, group: str) -> float:
@@ -303,7 +175,7 @@ def phase_labels(settings) -> tuple[str, str, str]:
     squares; then MCMC, cross-validation, the refits through the approximate chain,
     cross-impedance and limit cycles, as far as they run; then the figures.
 
-    ``settings``: a :class:`~fitdf.report.build.ReportSettings` or its record in
+    ``settings``: a :class:`~fitdf.report.settings.ReportSettings` or its record in
     ``results.json`` (``results["settings"]``).
     """
 
@@ -316,7 +188,7 @@ def phase_labels(settings) -> tuple[str, str, str]:
         for name, runs in (
             (
                 "nested sampling" if get("sampler") == "nested" else "MCMC",
-                "mcmc" in (get("methods") or ()) and get("mcmc_top") != 0,
+                "posterior" in (get("methods") or ()) and get("posterior_top") != 0,
             ),
             ("cross-validation", get("cv_top") != 0),
             (f"{approx} refits", bool(approx)),
@@ -348,7 +220,7 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
     Parameters
     ----------
     settings : ReportSettings
-        The run's settings (:class:`fitdf.report.build.ReportSettings`).
+        The run's settings (:class:`fitdf.report.settings.ReportSettings`).
     models, blocks : list of str
         The laws and the block keys fitted.
     lsq_keys : list of tuple
@@ -368,8 +240,8 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
     what : list of str
         What the run computes, for :func:`start_line`.
     """
-    sampled = [m for m in models if m not in settings.mcmc_skip]
-    n_mcmc = _top(settings.mcmc_top if "mcmc" in settings.methods else 0, len(sampled))
+    sampled = [m for m in models if m not in settings.posterior_skip]
+    n_sampled = _top(settings.posterior_top if "posterior" in settings.methods else 0, len(sampled))
     n_cv, n_cross = _top(settings.cv_top, len(models)), _top(settings.cross_top, len(models))
     dynamic = [m for m in models if m not in settings.dynamic_skip]
     n_dynamic = _top(settings.dynamic_top, len(dynamic)) if settings.dynamic_chain else 0
@@ -381,9 +253,9 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
         for b in blocks
         if settings.posterior_blocks in (None, ()) or b in settings.posterior_blocks
     ]
-    n_sens = min(settings.sensitivity_top, n_mcmc) if kind == "nested" else 0
+    n_sens = min(settings.sensitivity_top, n_sampled) if kind == "nested" else 0
     for b in blocks:
-        n_post = n_mcmc if b in posterior else 0
+        n_post = n_sampled if b in posterior else 0
         posteriors = unknown_laws(kind, b, n_post)
         # a posterior with the prior's sensitivity samples once more (the box doubled; the
         # halved box is restricted from its draws) in the same job
@@ -410,12 +282,12 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
         f"{_plural(len(lsq_keys), 'least-squares fit')} ({_plural(len(models), 'law')} on "
         f"{_plural(len(blocks), 'block')})"
     ]
-    if n_mcmc and posterior:
+    if n_sampled and posterior:
         what.append(
-            _plural(n_mcmc * len(posterior), "posterior")
+            _plural(n_sampled * len(posterior), "posterior")
             + (" and evidence (nested sampling)" if kind == "nested" else " (MCMC)")
             + (
-                f", {_plural(min(settings.sensitivity_top, n_mcmc) * len(posterior), 'evidence')}"
+                f", {_plural(min(settings.sensitivity_top, n_sampled) * len(posterior), 'evidence')}"
                 " again with the prior box halved and doubled"
                 if kind == "nested" and settings.sensitivity_top
                 else ""
@@ -443,13 +315,13 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
         what.append("the limit-cycle comparison (Tables 5.1, 5.2)")
     n_figures = (
         3 * len(blocks)  # DF fits, loci, residuals
-        + (len(posterior) if n_mcmc else 0)  # a corner plot of a converged posterior
+        + (len(posterior) if n_sampled else 0)  # a corner plot of a converged posterior
         + len(cross_figures)
         + len(THESIS_GRAPHS)
         + int(settings.limit_cycles)
         + 1  # the summary
     )
-    what.append(f"{'up to ' if n_mcmc and posterior else ''}{n_figures} figures")
+    what.append(f"{'up to ' if n_sampled and posterior else ''}{n_figures} figures")
     return phases, what
 
 
@@ -460,7 +332,7 @@ def estimate(phases, workers: int) -> float:
 
 def rough(settings) -> bool:
     """Whether ``settings`` change what a job costs from the committed report's."""
-    return any(getattr(settings, k) != v for k, v in COMMITTED_SETTINGS.items())
+    return any(getattr(settings, k) != COMMITTED_SETTINGS.get(k) for k in COST_SETTINGS)
 
 
 def _sampler_runs(results: dict, key: str) -> int:
@@ -469,27 +341,40 @@ def _sampler_runs(results: dict, key: str) -> int:
     w = key.split()
     if w[0] != "nested":
         return 1
-    fit = results["blocks"].get(w[1], {}).get("fits_mcmc", {}).get(" ".join(w[2:]), {})
+    fits = results["blocks"].get(w[1], {}).get("fits_posterior", {})
+    fit = fits.get(" ".join(w[2:]), {})
     boxes = ((fit.get("diagnostics") or {}).get("prior_sensitivity") or {}).get("boxes") or []
     return 1 + sum(b.get("estimate", "sampled") != "restricted" for b in boxes)
 
 
-def table_text(results: dict) -> str:
-    """The text of :data:`_TABLE` for a report's results record (``results.json``).
+def cost_record(results: dict, known: dict | None = None) -> dict:
+    """What a report's jobs cost, from its results record (``results.json``): the record
+    ``costs.json`` holds and :data:`COMMITTED` is.
 
-    A posterior job that also sampled its prior's box again (doubled, and halved where the
-    posterior's draws could not give it) is entered at its seconds over its runs (the plan
-    multiplies them back for such a job), so that the table holds one posterior's seconds in
-    every ``nested`` row.
+    ``run``: the CPU, its cores (``timing.cores``), the workers, the total seconds and the
+    command that made the report (``run.command``); a record written before one of these
+    fields existed takes it from ``known`` (a ``run`` record, such as :data:`COMMITTED_RUN`),
+    else None. ``settings``: those of
+    :data:`COST_SETTINGS`; ``jobs_s``: the seconds of each job (``timing.jobs_s``), a
+    posterior job that also sampled its prior's box again (doubled, and halved where the
+    posterior's draws could not give it) at its seconds over its runs (the plan multiplies
+    them back for such a job), so that every ``nested`` entry is one posterior's seconds.
     """
-    jobs = results["timing"]["jobs_s"]
-    width = max(map(len, jobs))
-    return (
-        "\n".join(
-            f"{k:<{width}} {round(s / _sampler_runs(results, k), 2):g}" for k, s in jobs.items()
-        )
-        + "\n"
-    )
+    results = upgrade(results)
+    timing = results["timing"]
+    jobs = timing["jobs_s"]
+    run = {
+        "cpu": timing["machine"]["cpu"],
+        "cores": timing.get("cores"),
+        "workers": timing["workers"],
+        "total_s": round(timing["total_s"]),
+        "command": (results.get("run") or {}).get("command"),
+    }
+    return {
+        "run": {k: (known or {}).get(k) if v is None else v for k, v in run.items()},
+        "settings": {k: results["settings"].get(k) for k in COST_SETTINGS},
+        "jobs_s": {k: round(s / _sampler_runs(results, k), 2) for k, s in jobs.items()},
+    }
 
 
 def start_line(what: list[str], estimate_s: float, workers: int, *, rough=False, cached=False):

@@ -31,9 +31,9 @@ _BLOCK = {
     "aicc": "blocks/{block}/ranking_lsq/*/aicc",
 }
 _BLOCK_POST = {
-    "post_models": "blocks/{block}/ranking_mcmc/*/model",
-    "log_evidence": "blocks/{block}/ranking_mcmc/*/log_evidence",
-    "looic": "blocks/{block}/ranking_mcmc/*/looic",
+    "post_models": "blocks/{block}/ranking_posterior/*/model",
+    "log_evidence": "blocks/{block}/ranking_posterior/*/log_evidence",
+    "looic": "blocks/{block}/ranking_posterior/*/looic",
 }
 
 
@@ -93,8 +93,8 @@ def _best(title, rms, n_params, df, models, aicc, block):
 
 
 _LOO_NUMBERS = {
-    "elpd_diff": "blocks/{block}/ranking_mcmc/*/elpd_loo_diff",
-    "elpd_dse": "blocks/{block}/ranking_mcmc/*/elpd_loo_dse",
+    "elpd_diff": "blocks/{block}/ranking_posterior/*/elpd_loo_diff",
+    "elpd_dse": "blocks/{block}/ranking_posterior/*/elpd_loo_dse",
 }
 
 
@@ -264,12 +264,12 @@ def _failures(tables, worst, inputs, leads):
     return say(template + ".", **values)
 
 
-_DIAGNOSTICS = "blocks/*/fits_mcmc/*/diagnostics/"
+_DIAGNOSTICS = "blocks/*/fits_posterior/*/diagnostics/"
 
 
 @rule(
     "findings.posteriors",
-    method="blocks/*/fits_mcmc/*/method",
+    method="blocks/*/fits_posterior/*/method",
     converged=_DIAGNOSTICS + "converged",
     evaluations=_DIAGNOSTICS + "n_likelihood_evaluations",
     evidence_error=_DIAGNOSTICS + "log_evidence_error",
@@ -504,5 +504,5 @@ def findings(results: dict, physics=()) -> list:
 # ------------------------------------------------------------------ not yet claims
 def _limit_finding(lc) -> str | None:
     """The limit-cycle comparison's own one-line finding (``attrs.statements.finding``, made
-    by :func:`fitdf.thesis.limit_cycle_statements` from the record's fields)."""
+    by :func:`fitdf.limit_cycle_tables.limit_cycle_statements` from the record's fields)."""
     return ((lc.get("attrs") or {}).get("statements") or {}).get("finding")
