@@ -3,7 +3,7 @@
 A page that states a threshold, a prior's constant or a default writes the constant's name
 and the build writes its value, so the page cannot drift from the code:
 
-* ``:value:`fitdf.inference.nested.MIN_EFFECTIVE``` -- a module attribute (``400``);
+* ``:value:`fitdf.inference.convergence.MIN_EFFECTIVE``` -- a module attribute (``400``);
 * ``:value:`fitdf.data.cores.STACKING_FACTOR_RANGE[0]``` -- an item of a tuple or mapping
   (``[key][1]``: items of items);
 * ``:value:`fitdf.inference.nested.fit_nested(max_evaluations)``` -- a parameter's default;

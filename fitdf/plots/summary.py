@@ -39,6 +39,7 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Rectangle
 
+from fitdf.data.cores import STACKING_FACTOR_RANGE
 from fitdf.plots._figure import new_figure
 
 __all__ = [
@@ -439,7 +440,15 @@ def _constants_legend(fig, kinds, undetermined: bool) -> None:
         for text, face, edge in marks
     ]
     handles.append(Patch(color=_RANGE, label="Appendix A range"))
-    handles.append(Line2D([], [], color="0.3", lw=1.0, label="stacking factor 0.50-0.90"))
+    handles.append(
+        Line2D(
+            [],
+            [],
+            color="0.3",
+            lw=1.0,
+            label=f"stacking factor {STACKING_FACTOR_RANGE[0]:.2f}-{STACKING_FACTOR_RANGE[1]:.2f}",
+        )
+    )
     legend = fig.legend(
         handles=handles,
         loc="outside lower center",

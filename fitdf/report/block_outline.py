@@ -7,9 +7,30 @@ the parameter tables and the MCMC diagnostics of one block of ``results.json``
 
 from __future__ import annotations
 
+from fitdf.inference.convergence import (
+    MAX_LOG_EVIDENCE_ERROR,
+    MIN_EFFECTIVE,
+    MIN_ESS,
+    MIN_STEPS_OVER_TAU,
+    RHAT_MAX,
+)
+from fitdf.inference.ranking import _KASS_RAFTERY
+from fitdf.inference.selection import TIE_AICC
 from fitdf.report.conclusion import OUTSIDE
 from fitdf.report.criteria import best_by
-from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, law
+from fitdf.report.document import (
+    DETAILS,
+    IMG,
+    TABLE,
+    UL,
+    H,
+    P,
+    _records_table,
+    fmt,
+    law,
+    number_word,
+)
+from fitdf.report.settings import ReportSettings
 
 __all__ = ["RANK_COLS", "FIT_CAPTION", "LOCI_CAPTION", "RESIDUALS_CAPTION", "CORNER_CAPTION"]
 
@@ -59,7 +80,7 @@ RANK_COLS = [
     ("looic_se", "LOO-IC se"),
     ("waic", "WAIC"),
     ("cv_rms_complex", "CV RMS complex"),
-    ("indistinguishable_from", "indistinguishable from (AICc < 2 / LOO)"),
+    ("indistinguishable_from", f"indistinguishable from (AICc < {TIE_AICC:g} / LOO)"),
     ("warnings", "warnings"),
 ]
 
@@ -220,7 +241,8 @@ def _posterior_blocks(rec, names):
         return [
             P(
                 "No posterior sampled on this block: this run samples the blocks its settings "
-                "name (above); `fitdf report --full` samples the best three laws of every block."
+                "name (above); `fitdf report --full` samples the best "
+                f"{number_word(ReportSettings.for_run(full=True).posterior_top)} laws of every block."
             )
         ]
     nested = {m: f for m, f in rec["fits_posterior"].items() if f.get("method") == "nested"}
@@ -266,68 +288,22 @@ def _nested_blocks(rec, fits, names):
             ]
         )
         if not d.get("converged"):
-            unconverged.append(
-                f"{law(names, model)}: {fmt(d.get('n_effective'), 3)} effective draws (400 "
-                f"needed) and an evidence error of {fmt(d.get('log_evidence_error'), 2)} (0.3 at "
-                f"most) after {fmt(d.get('n_likelihood_evaluations'), 6)} evaluations, the "
-                "report's limit: its band, corner plot and intervals are not drawn as results"
-            )
-        for box in (d.get("prior_sensitivity") or {}).get("boxes") or []:
-            bound = _missed_bound(box)
-            if bound is not None:
-                run = box.get("sampled_log_evidence", box["log_evidence"])
-                missed.append(
-                    f"{law(names, model)}, box width {fmt(box['factor'])}: its run's ln evidence "
-                    f"{fmt(run, 5)} is below {fmt(bound, 5)}, the least the box allows (the "
-                    "prior's own evidence over the volume ratio): the run missed the posterior, "
-                    "and the evidence shown is the stratified estimate, exact inside the prior's "
-                    "box and a lower bound"
-                )
-            sensitivity.append(
-                [
-                    law(names, model),
-                    box["factor"],
-                    f"{fmt(box['log_evidence'], 5)} +- {fmt(box['log_evidence_error'], 2)}",
-                    box["shift"]
-                    if box.get("shift_error") is None
-                    else f"{fmt(box['shift'], 3)} +- {fmt(box['shift_error'], 2)}",
-                    _HOW_ESTIMATED.get(box.get("estimate", "sampled")),
-                    bool(box.get("converged")),
-                ]
-            )
+            unconverged.append(_unconverged_nested(law(names, model), d))
+        boxes, misses = _sensitivity_rows(law(names, model), d)
+        sensitivity += boxes
+        missed += misses
     out = [
         TABLE(["law", "evaluations", "effective draws", "ln evidence", "converged"], rows),
         P(
-            "Nested sampling (nautilus): converged means at least 400 effective draws (Kish) and an "
-            "evidence error of at most 0.3. The prior decides the evidence: each parameter's is "
+            f"Nested sampling (nautilus): converged means at least {MIN_EFFECTIVE} effective draws "
+            f"(Kish) and an evidence error of at most {MAX_LOG_EVIDENCE_ERROR:g}. The prior decides the evidence: each parameter's is "
             "uniform on its box in the fitted coordinate (log-uniform for a log-scaled parameter; "
             "the boxes are the material limits of soft magnetic alloys with the core's geometry), "
             "the series resistance's log-normal, and the two noise scales are integrated out under "
             "log-uniform priors; the best law's prior, in physical units:"
         ),
+        *_prior_table(next(iter(fits.values())).get("prior") or {}),
     ]
-    best = next(iter(fits.values()))
-    prior = best.get("prior") or {}
-    if prior:
-        out.append(
-            TABLE(
-                ["parameter", "prior", "low", "high", "unit"],
-                [
-                    [
-                        name,
-                        p.get("distribution")
-                        + (
-                            f" (median {fmt(p['median'], 3)}, x/÷ e^{fmt(p['sigma_ln'], 2)})"
-                            if "median" in p
-                            else ""
-                        ),
-                        *(p.get("bounds") or (None, None)),
-                        p.get("unit"),
-                    ]
-                    for name, p in prior.items()
-                ],
-            )
-        )
     if unconverged:
         out.append(P("Not converged: " + "; ".join(unconverged) + "."))
     if sensitivity:
@@ -345,6 +321,72 @@ def _nested_blocks(rec, fits, names):
         if missed:
             out.append(P("Missed: " + "; ".join(missed) + "."))
     return out
+
+
+def _unconverged_nested(name, d) -> str:
+    """Why the posterior of the law ``name`` (diagnostics ``d``) is not drawn."""
+    return (
+        f"{name}: {fmt(d.get('n_effective'), 3)} effective draws "
+        f"({MIN_EFFECTIVE} needed) and an evidence error of "
+        f"{fmt(d.get('log_evidence_error'), 2)} ({MAX_LOG_EVIDENCE_ERROR:g} at "
+        f"most) after {fmt(d.get('n_likelihood_evaluations'), 6)} evaluations, the "
+        "report's limit: its band, corner plot and intervals are not drawn as results"
+    )
+
+
+def _sensitivity_rows(name, d) -> tuple[list, list]:
+    """The prior-sensitivity table's rows of the law ``name`` (diagnostics ``d``), and the
+    sentences on its wider boxes whose run missed the posterior."""
+    rows, missed = [], []
+    for box in (d.get("prior_sensitivity") or {}).get("boxes") or []:
+        bound = _missed_bound(box)
+        if bound is not None:
+            run = box.get("sampled_log_evidence", box["log_evidence"])
+            missed.append(
+                f"{name}, box width {fmt(box['factor'])}: its run's ln evidence "
+                f"{fmt(run, 5)} is below {fmt(bound, 5)}, the least the box allows (the "
+                "prior's own evidence over the volume ratio): the run missed the posterior, "
+                "and the evidence shown is the stratified estimate, exact inside the prior's "
+                "box and a lower bound"
+            )
+        rows.append(
+            [
+                name,
+                box["factor"],
+                f"{fmt(box['log_evidence'], 5)} +- {fmt(box['log_evidence_error'], 2)}",
+                box["shift"]
+                if box.get("shift_error") is None
+                else f"{fmt(box['shift'], 3)} +- {fmt(box['shift_error'], 2)}",
+                _HOW_ESTIMATED.get(box.get("estimate", "sampled")),
+                bool(box.get("converged")),
+            ]
+        )
+    return rows, missed
+
+
+def _prior_table(prior) -> list:
+    """A law's prior in physical units, as a table (none without a prior)."""
+    if not prior:
+        return []
+    return [
+        TABLE(
+            ["parameter", "prior", "low", "high", "unit"],
+            [
+                [
+                    name,
+                    p.get("distribution")
+                    + (
+                        f" (median {fmt(p['median'], 3)}, x/÷ e^{fmt(p['sigma_ln'], 2)})"
+                        if "median" in p
+                        else ""
+                    ),
+                    *(p.get("bounds") or (None, None)),
+                    p.get("unit"),
+                ]
+                for name, p in prior.items()
+            ],
+        )
+    ]
 
 
 def _mcmc_blocks(rec, names):
@@ -392,9 +434,10 @@ def _mcmc_blocks(rec, names):
             rows,
         ),
         P(
-            "Converged means at least 50 autocorrelation times, R-hat < 1.01 and bulk ESS >= 400 for "
-            "every parameter (a pilot is discarded; production is extended until converged, up to the "
-            "report's step limit, and stopped early once 50 autocorrelation times exceed that limit: "
+            f"Converged means at least {MIN_STEPS_OVER_TAU} autocorrelation times, R-hat < "
+            f"{RHAT_MAX:g} and bulk ESS >= {MIN_ESS} for every parameter (a pilot is discarded; "
+            "production is extended until converged, up to the report's step limit, and stopped "
+            f"early once {MIN_STEPS_OVER_TAU} autocorrelation times exceed that limit: "
             "'steps needed' is then the length it would take). Read the posterior bands of an "
             "unconverged chain as rough."
         ),
@@ -465,51 +508,47 @@ def _chain_blocks(rec, names):
     ]
 
 
+def _kass_raftery_scale() -> str:
+    """The Kass-Raftery scale in words, from its bounds (``below 2 not worth more than a bare
+    mention, 2-6 positive, 6-10 strong, above 10 very strong``)."""
+    parts, low = [], None
+    for bound, label in _KASS_RAFTERY:
+        parts.append(f"below {bound:g} {label}" if low is None else f"{low:g}-{bound:g} {label}")
+        low = bound
+    return ", ".join(parts + [f"above {low:g} very strong"])
+
+
 def _named(records, names, *keys):
     """``records`` with the laws under ``keys`` named by :func:`~fitdf.report.document.law`."""
     return [{**r, **{k: law(names, r.get(k)) for k in keys}} for r in records]
 
 
-def _block_blocks(rec, names):
-    """One block's section; ``names``: :func:`~fitdf.report.document.law_names` of the record."""
-    f = rec["figures"]
-    out = [
-        H(2, rec["title"]),
-        H(3, "Data"),
-        *_data_blocks(rec),
-        H(3, "Describing function against input amplitude"),
-        IMG(f["fit"], f"DF fits on {rec['key']}"),
-        P(FIT_CAPTION),
-        H(3, "Critical loci"),
-        IMG(f["loci"], f"critical loci on {rec['key']}"),
-        P(LOCI_CAPTION),
-        H(3, "Ranking"),
+def _posterior_ranking(rec, names) -> list:
+    """The posterior ranking, with what orders it (none without posteriors)."""
+    if not rec["ranking_posterior"]:
+        return []
+    nested = any(f.get("method") == "nested" for f in rec["fits_posterior"].values())
+    return [
         P(
-            "Least squares, ordered by AICc (the first row is the best law); rms_complex is the "
-            "RMS of |fit - measured|:"
+            "Posteriors (nested sampling: highest-posterior draws), ordered by the Bayesian "
+            "evidence; ln B is the Bayes factor over the next law, with its verdict on the "
+            f"Kass-Raftery scale (2 ln B: {_kass_raftery_scale()}):"
+            if nested
+            else "MCMC (highest-posterior draws; fitted noise scales), ordered by LOO-IC:"
         ),
-        _records_table(_named(rec["ranking_lsq"], names, "model"), RANK_COLS),
+        _records_table(
+            _named(rec["ranking_posterior"], names, "model"),
+            EVIDENCE_COLS if nested else RANK_COLS,
+        ),
     ]
-    if rec["ranking_posterior"]:
-        nested = any(f.get("method") == "nested" for f in rec["fits_posterior"].values())
-        out += [
-            P(
-                "Posteriors (nested sampling: highest-posterior draws), ordered by the Bayesian "
-                "evidence; ln B is the Bayes factor over the next law, with its verdict on the "
-                "Kass-Raftery scale (2 ln B: below 2 not worth more than a bare mention, 2-6 "
-                "positive, 6-10 strong, above 10 very strong):"
-                if nested
-                else "MCMC (highest-posterior draws; fitted noise scales), ordered by LOO-IC:"
-            ),
-            _records_table(
-                _named(rec["ranking_posterior"], names, "model"),
-                EVIDENCE_COLS if nested else RANK_COLS,
-            ),
-        ]
+
+
+def _residual_blocks(rec, names) -> list:
+    """The residual figure and the rows and frequency blocks that every law misses."""
     wf = rec["where_models_fail"]
-    out += [
+    return [
         H(3, "Residuals of the top models"),
-        IMG(f["residuals"], f"residuals on {rec['key']}"),
+        IMG(rec["figures"]["residuals"], f"residuals on {rec['key']}"),
         P(RESIDUALS_CAPTION),
         P("Rows that every law misses (smallest complex residual over all laws):"),
         _records_table(
@@ -543,6 +582,30 @@ def _block_blocks(rec, names):
                 )
             ],
         ),
+    ]
+
+
+def _block_blocks(rec, names):
+    """One block's section; ``names``: :func:`~fitdf.report.document.law_names` of the record."""
+    f = rec["figures"]
+    out = [
+        H(2, rec["title"]),
+        H(3, "Data"),
+        *_data_blocks(rec),
+        H(3, "Describing function against input amplitude"),
+        IMG(f["fit"], f"DF fits on {rec['key']}"),
+        P(FIT_CAPTION),
+        H(3, "Critical loci"),
+        IMG(f["loci"], f"critical loci on {rec['key']}"),
+        P(LOCI_CAPTION),
+        H(3, "Ranking"),
+        P(
+            "Least squares, ordered by AICc (the first row is the best law); rms_complex is the "
+            "RMS of |fit - measured|:"
+        ),
+        _records_table(_named(rec["ranking_lsq"], names, "model"), RANK_COLS),
+        *_posterior_ranking(rec, names),
+        *_residual_blocks(rec, names),
         *_chain_blocks(rec, names),
         H(3, "Parameters"),
         P(

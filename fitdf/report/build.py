@@ -150,80 +150,11 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
     through the approximate chain, the best refitted with rate-dependent losses and to the rows
     as printed, cross-impedance, limit cycles. Returns each kind's results by their keys, in
     the order the jobs are defined here (not the order they ran in)."""
-    jobs = {}
-    if settings.limit_cycles:
-        winners = rs.aicc_winners(lsq, models, LIMIT_CYCLE_BLOCKS)
-        # the report's own fits of those blocks (the same data, chain, seed and starts a
-        # fresh comparison would fit again)
-        candidates = {
-            k: [lsq[(k, m)] for m in winners if (k, m) in lsq] for k in LIMIT_CYCLE_BLOCKS
-        }
-        jobs[("limit",)] = (
-            job.job_limit_cycles,
-            (seed, winners or None, settings.n_starts, candidates),
-        )
+    jobs = _limit_job(settings, seed, models, lsq)
     for b in blocks:
-        sampled = [m for m in ranked[b.key] if m not in settings.posterior_skip]
-        posterior = settings.posterior_blocks is None or b.key in settings.posterior_blocks
-        n_sampled = settings.posterior_top if "posterior" in settings.methods and posterior else 0
-        for i, m in enumerate(_top(sampled, n_sampled)):
-            if settings.sampler == "nested":
-                jobs[("nested", b.key, m)] = (
-                    job.job_nested,
-                    (
-                        lsq[(b.key, m)],
-                        seed,
-                        settings.nested_live,
-                        settings.nested_networks,
-                        settings.nested_max_evaluations,
-                        i < settings.sensitivity_top,
-                    ),
-                )
-            else:
-                jobs[("mcmc", b.key, m)] = (
-                    job.job_mcmc,
-                    (lsq[(b.key, m)], seed, settings.n_steps, settings.n_walkers)
-                    + settings.step_limits(m),
-                )
-        for m in _top(ranked[b.key], settings.cv_top):
-            jobs[("cv", b.key, m)] = (job.job_cv, (lsq[(b.key, m)], seed, settings.cv_starts))
-        if settings.dynamic_chain:
-            cv_laws = set(_top(ranked[b.key], settings.cv_top))
-            dynamic = [m for m in ranked[b.key] if m not in settings.dynamic_skip]
-            for m in _top(dynamic, settings.dynamic_top):
-                jobs[("dynamic", b.key, m)] = (
-                    job.job_dynamic,
-                    (
-                        lsq[(b.key, m)],
-                        seed,
-                        settings.dynamic_chain,
-                        settings.dynamic_cv,
-                        settings.dynamic_cv and m not in cv_laws,
-                    ),
-                )
-        if settings.approximate_chain:
-            for m in models:
-                jobs[("approx", b.key, m)] = (
-                    job.job_approx,
-                    (
-                        lsq[(b.key, m)],
-                        seed,
-                        settings.approximate_chain,
-                        settings.approximate_screen,
-                    ),
-                )
-    for b in printed_blocks(blocks):
-        for m in _top(ranked[b.key], settings.printed_top):
-            jobs[("printed", b.key, m)] = (
-                job.job_printed,
-                (b.data, m, seed, settings.n_starts, settings.chain),
-            )
-    for core, train, test, train_key, _ in settings.cross:
-        for m in _top(ranked.get(train_key, models), settings.cross_top):
-            jobs[("cross", core, train, test, m)] = (
-                job.job_cross,
-                (core, m, train, test, seed, settings.n_starts, settings.chain),
-            )
+        jobs.update(_posterior_jobs(settings, seed, b.key, ranked[b.key], lsq))
+        jobs.update(_refit_jobs(settings, seed, b.key, ranked[b.key], models, lsq))
+    jobs.update(_data_jobs(settings, seed, models, blocks, ranked))
     done = (
         runner.run(dict(sorted(jobs.items(), key=_long_first)), costs.phase_labels(settings)[1])
         if jobs
@@ -238,6 +169,93 @@ def _second_phase(settings, seed, runner, models, blocks, lsq, ranked, figdir) -
             out[kind][key[1:]] = done[key]
     out["limit"] = job.keep_files(done[("limit",)], figdir) if ("limit",) in done else None
     return out
+
+
+def _limit_job(settings, seed, models, lsq) -> dict:
+    """The limit-cycle comparison's job (none when the settings leave it out)."""
+    if not settings.limit_cycles:
+        return {}
+    winners = rs.aicc_winners(lsq, models, LIMIT_CYCLE_BLOCKS)
+    # the report's own fits of those blocks (the same data, chain, seed and starts a
+    # fresh comparison would fit again)
+    candidates = {k: [lsq[(k, m)] for m in winners if (k, m) in lsq] for k in LIMIT_CYCLE_BLOCKS}
+    return {
+        ("limit",): (job.job_limit_cycles, (seed, winners or None, settings.n_starts, candidates))
+    }
+
+
+def _posterior_jobs(settings, seed, key, ranked, lsq) -> dict:
+    """The posterior jobs of block ``key``'s best laws (``ranked``: its laws, best first)."""
+    jobs = {}
+    sampled = [m for m in ranked if m not in settings.posterior_skip]
+    posterior = settings.posterior_blocks is None or key in settings.posterior_blocks
+    n_sampled = settings.posterior_top if "posterior" in settings.methods and posterior else 0
+    for i, m in enumerate(_top(sampled, n_sampled)):
+        if settings.sampler == "nested":
+            jobs[("nested", key, m)] = (
+                job.job_nested,
+                (
+                    lsq[(key, m)],
+                    seed,
+                    settings.nested_live,
+                    settings.nested_networks,
+                    settings.nested_max_evaluations,
+                    i < settings.sensitivity_top,
+                ),
+            )
+        else:
+            jobs[("mcmc", key, m)] = (
+                job.job_mcmc,
+                (lsq[(key, m)], seed, settings.n_steps, settings.n_walkers)
+                + settings.step_limits(m),
+            )
+    return jobs
+
+
+def _refit_jobs(settings, seed, key, ranked, models, lsq) -> dict:
+    """Block ``key``'s cross-validations, rate-dependent refits and approximate-chain refits."""
+    jobs = {}
+    for m in _top(ranked, settings.cv_top):
+        jobs[("cv", key, m)] = (job.job_cv, (lsq[(key, m)], seed, settings.cv_starts))
+    if settings.dynamic_chain:
+        cv_laws = set(_top(ranked, settings.cv_top))
+        dynamic = [m for m in ranked if m not in settings.dynamic_skip]
+        for m in _top(dynamic, settings.dynamic_top):
+            jobs[("dynamic", key, m)] = (
+                job.job_dynamic,
+                (
+                    lsq[(key, m)],
+                    seed,
+                    settings.dynamic_chain,
+                    settings.dynamic_cv,
+                    settings.dynamic_cv and m not in cv_laws,
+                ),
+            )
+    if settings.approximate_chain:
+        for m in models:
+            jobs[("approx", key, m)] = (
+                job.job_approx,
+                (lsq[(key, m)], seed, settings.approximate_chain, settings.approximate_screen),
+            )
+    return jobs
+
+
+def _data_jobs(settings, seed, models, blocks, ranked) -> dict:
+    """The fits to the rows as printed and the cross-impedance predictions."""
+    jobs = {}
+    for b in printed_blocks(blocks):
+        for m in _top(ranked[b.key], settings.printed_top):
+            jobs[("printed", b.key, m)] = (
+                job.job_printed,
+                (b.data, m, seed, settings.n_starts, settings.chain),
+            )
+    for core, train, test, train_key, _ in settings.cross:
+        for m in _top(ranked.get(train_key, models), settings.cross_top):
+            jobs[("cross", core, train, test, m)] = (
+                job.job_cross,
+                (core, m, train, test, seed, settings.n_starts, settings.chain),
+            )
+    return jobs
 
 
 def _figures(settings, runner, blocks, lsq, ranked, second, figdir) -> dict:

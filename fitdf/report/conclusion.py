@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from fitdf.data.cores import STACKING_FACTOR, STACKING_FACTOR_RANGE
+from fitdf.inference.material import RESISTANCE_PRIOR_SIGMAS
 from fitdf.report.claims import paragraph, rule, say
 from fitdf.report.criteria import (
     AICC_TIE,
@@ -51,7 +52,7 @@ QUANTITY_NAMES = {
 OUTSIDE = (
     "the fitted constant lies outside the Appendix A catalogue range of the core's material, "
     f"at the nominal stacking factor {STACKING_FACTOR:g} (for the series resistance: outside "
-    "the central 95 % of its prior, the winding's Appendix A estimate plus a typical source and "
+    f"the central {100 * math.erf(RESISTANCE_PRIOR_SIGMAS / math.sqrt(2)):.0f} % of its prior, the winding's Appendix A estimate plus a typical source and "
     "leads)"
 )
 
@@ -249,84 +250,89 @@ def _ties(models, aicc, post_models, log_evidence, looic, elpd_diff, elpd_dse):
         return None
     # (Kass and Raftery's scale is on 2 ln B: the sentence states the bound on ln B)
     values = {"aicc_tie": AICC_TIE, "bare": BARE_MENTION / 2, "loo_se": LOO_TIE_SE}
-    clauses = []
-    # AICc
+    clauses = [
+        _aicc_clause(models, aicc, best, values),
+        _evidence_clause(post_models, log_evidence, best, values),
+        _loo_clause(post_models, looic, elpd_diff, elpd_dse, best, values),
+    ]
+    text = "; ".join(c for c in clauses if c)
+    return say(text[0].upper() + text[1:] + ".", **values)
+
+
+def _aicc_clause(models, aicc, best, values) -> str:
+    """The AICc ties' clause of :func:`_ties` (its fields added to ``values``)."""
     pairs = [(k, best[k], m, d) for k in best for m, d in aicc_ties(models[k], aicc[k])]
-    if pairs:
-        parts = []
-        for i, ((a, b), where) in enumerate(_grouped(pairs).items()):
-            parts.append(f"{{a_best_{i}:law}} from {{a_other_{i}:law}} on {{a_blocks_{i}:and}}")
-            values.update(
-                {f"a_best_{i}": a, f"a_other_{i}": b, f"a_blocks_{i}": [w[0] for w in where]}
-            )
-        clauses.append("by AICc (within {aicc_tie:g}) the data cannot tell " + "; nor ".join(parts))
-    else:
-        clauses.append("by AICc no other law comes within {aicc_tie:g} of the best on any block")
-    # the evidence
+    if not pairs:
+        return "by AICc no other law comes within {aicc_tie:g} of the best on any block"
+    parts = []
+    for i, ((a, b), where) in enumerate(_grouped(pairs).items()):
+        parts.append(f"{{a_best_{i}:law}} from {{a_other_{i}:law}} on {{a_blocks_{i}:and}}")
+        values.update({f"a_best_{i}": a, f"a_other_{i}": b, f"a_blocks_{i}": [w[0] for w in where]})
+    return "by AICc (within {aicc_tie:g}) the data cannot tell " + "; nor ".join(parts)
+
+
+def _evidence_clause(post_models, log_evidence, best, values) -> str | None:
+    """The evidence ties' clause of :func:`_ties`, None where no block was sampled."""
     sampled = {
         k: best_by(post_models.get(k) or [], log_evidence.get(k) or [], larger=True) for k in best
     }
     sampled = {k: m for k, m in sampled.items() if m is not None}
-    if sampled:
-        pairs = [
-            (k, sampled[k], m, two)
-            for k in sampled
-            for m, two in evidence_ties(post_models[k], log_evidence[k])
-        ]
-        values["n_ev"] = len(sampled)
-        if pairs:
-            parts = []
-            for i, ((a, b), where) in enumerate(_grouped(pairs).items()):
-                parts.append(f"{{e_best_{i}:law}} from {{e_other_{i}:law}} on {{e_blocks_{i}:and}}")
-                values.update(
-                    {f"e_best_{i}": a, f"e_other_{i}": b, f"e_blocks_{i}": [w[0] for w in where]}
-                )
-            clauses.append(
-                "by the evidence (a Bayes factor B with ln B below {bare:g}, not worth more "
-                "than a bare mention) it cannot tell " + "; nor ".join(parts)
-            )
-        else:
-            clauses.append(
-                "by the evidence every Bayes factor to the best on the {n_ev} "
-                + ("block" if len(sampled) == 1 else "blocks")
-                + " sampled is worth more than a bare mention (ln B at least {bare:g})"
-            )
-    # LOO-IC
+    if not sampled:
+        return None
+    pairs = [
+        (k, sampled[k], m, two)
+        for k in sampled
+        for m, two in evidence_ties(post_models[k], log_evidence[k])
+    ]
+    values["n_ev"] = len(sampled)
+    if not pairs:
+        return (
+            "by the evidence every Bayes factor to the best on the {n_ev} "
+            + ("block" if len(sampled) == 1 else "blocks")
+            + " sampled is worth more than a bare mention (ln B at least {bare:g})"
+        )
+    parts = []
+    for i, ((a, b), where) in enumerate(_grouped(pairs).items()):
+        parts.append(f"{{e_best_{i}:law}} from {{e_other_{i}:law}} on {{e_blocks_{i}:and}}")
+        values.update({f"e_best_{i}": a, f"e_other_{i}": b, f"e_blocks_{i}": [w[0] for w in where]})
+    return (
+        "by the evidence (a Bayes factor B with ln B below {bare:g}, not worth more "
+        "than a bare mention) it cannot tell " + "; nor ".join(parts)
+    )
+
+
+def _loo_clause(post_models, looic, elpd_diff, elpd_dse, best, values) -> str | None:
+    """The LOO-IC ties' clause of :func:`_ties`, None where no block has a LOO-IC."""
     loo_best = {k: best_by(post_models.get(k) or [], looic.get(k) or []) for k in best}
     loo_best = {k: m for k, m in loo_best.items() if m is not None}
-    if loo_best:
-        pairs = [
-            (k, loo_best[k], m, d, se)
-            for k in loo_best
-            for m, d, se in loo_ties(post_models[k], looic[k], elpd_diff[k], elpd_dse[k])
-        ]
-        if pairs:
-            parts = []
-            for i, (k, a, b, d, se) in enumerate(pairs):
-                parts.append(
-                    f"{{l_best_{i}:law}} from {{l_other_{i}:law}} on {{l_block_{i}}} "
-                    f"(elpd apart by {{l_diff_{i}:.1f}} +- {{l_se_{i}:.1f}})"
-                )
-                values.update(
-                    {
-                        f"l_best_{i}": a,
-                        f"l_other_{i}": b,
-                        f"l_block_{i}": k,
-                        f"l_diff_{i}": d,
-                        f"l_se_{i}": se,
-                    }
-                )
-            clauses.append(
-                "by LOO-IC (an elpd difference below {loo_se:g} standard errors) it cannot "
-                "tell " + "; nor ".join(parts)
-            )
-        else:
-            clauses.append(
-                "by LOO-IC no other law's elpd comes within {loo_se:g} standard errors of the "
-                "best's"
-            )
-    text = "; ".join(clauses)
-    return say(text[0].upper() + text[1:] + ".", **values)
+    if not loo_best:
+        return None
+    pairs = [
+        (k, loo_best[k], m, d, se)
+        for k in loo_best
+        for m, d, se in loo_ties(post_models[k], looic[k], elpd_diff[k], elpd_dse[k])
+    ]
+    if not pairs:
+        return "by LOO-IC no other law's elpd comes within {loo_se:g} standard errors of the best's"
+    parts = []
+    for i, (k, a, b, d, se) in enumerate(pairs):
+        parts.append(
+            f"{{l_best_{i}:law}} from {{l_other_{i}:law}} on {{l_block_{i}}} "
+            f"(elpd apart by {{l_diff_{i}:.1f}} +- {{l_se_{i}:.1f}})"
+        )
+        values.update(
+            {
+                f"l_best_{i}": a,
+                f"l_other_{i}": b,
+                f"l_block_{i}": k,
+                f"l_diff_{i}": d,
+                f"l_se_{i}": se,
+            }
+        )
+    return (
+        "by LOO-IC (an elpd difference below {loo_se:g} standard errors) it cannot "
+        "tell " + "; nor ".join(parts)
+    )
 
 
 # ------------------------------------------------------------------ posteriors and constants

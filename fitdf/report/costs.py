@@ -240,48 +240,81 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
     what : list of str
         What the run computes, for :func:`start_line`.
     """
-    sampled = [m for m in models if m not in settings.posterior_skip]
-    n_sampled = _top(settings.posterior_top if "posterior" in settings.methods else 0, len(sampled))
-    n_cv, n_cross = _top(settings.cv_top, len(models)), _top(settings.cross_top, len(models))
-    dynamic = [m for m in models if m not in settings.dynamic_skip]
-    n_dynamic = _top(settings.dynamic_top, len(dynamic)) if settings.dynamic_chain else 0
-    cross = list(settings.cross) if n_cross else []
-    second = [("limit", expected_seconds(("limit",)))] if settings.limit_cycles else []
+    n = _counts(settings, models)
     kind = "nested" if settings.sampler == "nested" else "mcmc"
     posterior = [
         b
         for b in blocks
         if settings.posterior_blocks in (None, ()) or b in settings.posterior_blocks
     ]
-    n_sens = min(settings.sensitivity_top, n_sampled) if kind == "nested" else 0
-    for b in blocks:
-        n_post = n_sampled if b in posterior else 0
-        posteriors = unknown_laws(kind, b, n_post)
-        # a posterior with the prior's sensitivity samples once more (the box doubled; the
-        # halved box is restricted from its draws) in the same job
-        posteriors = [(k, s * (1 + len(SAMPLED_FACTORS) * (i < n_sens))) for i, (k, s) in
-                      enumerate(posteriors)]  # fmt: skip
-        second += posteriors + unknown_laws("cv", b, n_cv)
-        if settings.approximate_chain:
-            second += [("approx", expected_seconds(("approx", b, m))) for m in models]
-        second += unknown_laws("dynamic", b, n_dynamic)
-    n_printed = _top(settings.printed_top, len(models))
-    for b in printed:
-        second += unknown_laws("printed", b, n_printed)
-    for core, train, test, *_ in cross:
-        second += unknown_laws("cross", f"{core} {train} {test}", n_cross)
-    second.sort(key=lambda job: (SECOND_PHASE_ORDER.index(job[0]), -job[1]))
+    n["sens"] = min(settings.sensitivity_top, n["sampled"]) if kind == "nested" else 0
+    cross = list(settings.cross) if n["cross"] else []
+    second = _second_phase_jobs(settings, models, blocks, n, kind, posterior, printed, cross)
     cross_figures = [("cross", c, tr, te) for c, tr, te, train, _ in cross if train in blocks]
     figures = [("block", b) for b in blocks] + cross_figures + [("thesis",)]
     phases = [Phase(labels[0], tuple((job_kind(k), expected_seconds(k)) for k in lsq_keys))]
     if second:
         phases.append(Phase(labels[1], tuple(second)))
     phases.append(Phase(labels[2], tuple((job_kind(k), expected_seconds(k)) for k in figures)))
+    what = _what(settings, models, blocks, lsq_keys, folds, n, kind, posterior, cross)
+    n_figures = (
+        3 * len(blocks)  # DF fits, loci, residuals
+        + (len(posterior) if n["sampled"] else 0)  # a corner plot of a converged posterior
+        + len(cross_figures)
+        + len(THESIS_GRAPHS)
+        + int(settings.limit_cycles)
+        + 1  # the summary
+    )
+    what.append(f"{'up to ' if n['sampled'] and posterior else ''}{n_figures} figures")
+    return phases, what
 
+
+def _counts(settings, models) -> dict:
+    """How many laws of each block :func:`plan` gives each kind of job: ``sampled``
+    (posteriors), ``cv``, ``cross`` (per direction), ``dynamic`` and ``printed``."""
+    sampled = [m for m in models if m not in settings.posterior_skip]
+    dynamic = [m for m in models if m not in settings.dynamic_skip]
+    return {
+        "sampled": _top(
+            settings.posterior_top if "posterior" in settings.methods else 0, len(sampled)
+        ),
+        "cv": _top(settings.cv_top, len(models)),
+        "cross": _top(settings.cross_top, len(models)),
+        "dynamic": _top(settings.dynamic_top, len(dynamic)) if settings.dynamic_chain else 0,
+        "printed": _top(settings.printed_top, len(models)),
+    }
+
+
+def _second_phase_jobs(settings, models, blocks, n, kind, posterior, printed, cross) -> list:
+    """The second phase's ``(kind, expected seconds)`` jobs of :func:`plan`, in the order the
+    run submits them (``n``: :func:`_counts` with ``sens``)."""
+    second = [("limit", expected_seconds(("limit",)))] if settings.limit_cycles else []
+    for b in blocks:
+        n_post = n["sampled"] if b in posterior else 0
+        posteriors = unknown_laws(kind, b, n_post)
+        # a posterior with the prior's sensitivity samples once more (the box doubled; the
+        # halved box is restricted from its draws) in the same job
+        posteriors = [(k, s * (1 + len(SAMPLED_FACTORS) * (i < n["sens"]))) for i, (k, s) in
+                      enumerate(posteriors)]  # fmt: skip
+        second += posteriors + unknown_laws("cv", b, n["cv"])
+        if settings.approximate_chain:
+            second += [("approx", expected_seconds(("approx", b, m))) for m in models]
+        second += unknown_laws("dynamic", b, n["dynamic"])
+    for b in printed:
+        second += unknown_laws("printed", b, n["printed"])
+    for core, train, test, *_ in cross:
+        second += unknown_laws("cross", f"{core} {train} {test}", n["cross"])
+    second.sort(key=lambda job: (SECOND_PHASE_ORDER.index(job[0]), -job[1]))
+    return second
+
+
+def _what(settings, models, blocks, lsq_keys, folds, n, kind, posterior, cross) -> list:
+    """What :func:`plan`'s run computes, but for its figures (``n``: :func:`_counts`)."""
     what = [
         f"{_plural(len(lsq_keys), 'least-squares fit')} ({_plural(len(models), 'law')} on "
         f"{_plural(len(blocks), 'block')})"
     ]
+    n_sampled = n["sampled"]
     if n_sampled and posterior:
         what.append(
             _plural(n_sampled * len(posterior), "posterior")
@@ -293,10 +326,10 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
                 else ""
             )
         )
-    if n_cv:
-        n_folds = n_cv * sum(folds.get(b, 0) for b in blocks)
+    if n["cv"]:
+        n_folds = n["cv"] * sum(folds.get(b, 0) for b in blocks)
         what.append(
-            f"{_plural(n_cv * len(blocks), 'cross-validation')} "
+            f"{_plural(n['cv'] * len(blocks), 'cross-validation')} "
             f"({_plural(n_folds, 'leave-one-frequency-out fold')})"
         )
     if settings.approximate_chain:
@@ -304,25 +337,16 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
             f"{_plural(len(models) * len(blocks), 'refit')} through the "
             f"{settings.approximate_chain} chain"
         )
-    if n_dynamic:
+    if n["dynamic"]:
         what.append(
-            f"{_plural(n_dynamic * len(blocks), 'refit')} with rate-dependent losses "
+            f"{_plural(n['dynamic'] * len(blocks), 'refit')} with rate-dependent losses "
             f"(the {settings.dynamic_chain} chain)"
         )
     if cross:
-        what.append(_plural(n_cross * len(cross), "cross-impedance prediction"))
+        what.append(_plural(n["cross"] * len(cross), "cross-impedance prediction"))
     if settings.limit_cycles:
         what.append("the limit-cycle comparison (Tables 5.1, 5.2)")
-    n_figures = (
-        3 * len(blocks)  # DF fits, loci, residuals
-        + (len(posterior) if n_sampled else 0)  # a corner plot of a converged posterior
-        + len(cross_figures)
-        + len(THESIS_GRAPHS)
-        + int(settings.limit_cycles)
-        + 1  # the summary
-    )
-    what.append(f"{'up to ' if n_sampled and posterior else ''}{n_figures} figures")
-    return phases, what
+    return what
 
 
 def estimate(phases, workers: int) -> float:

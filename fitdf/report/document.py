@@ -13,6 +13,14 @@ __all__ = ["fmt", "slug", "law_names", "law", "H", "P", "UL", "TABLE", "IMG", "D
 
 
 # ------------------------------------------------------------------ formatting
+_NUMBER_WORDS = ("no", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine")
+
+
+def number_word(n: int) -> str:
+    """``3`` -> "three": a count below ten in words, as the report writes it; larger as digits."""
+    return _NUMBER_WORDS[n] if 0 <= n < len(_NUMBER_WORDS) else str(n)
+
+
 def fmt(v, digits=4) -> str:
     """A cell: numbers to ``digits`` significant digits, None as 'n/a', booleans yes/no."""
     if v is None:

@@ -15,9 +15,14 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from fitdf.inference.convergence import (
+    MAX_LOG_EVIDENCE_ERROR,
+    MIN_EFFECTIVE,
+    MIN_ESS,
+    MIN_STEPS_OVER_TAU,
+    RHAT_MAX,
+)
 from fitdf.inference.evidence import MISSED_BY_ERRORS
-from fitdf.inference.mcmc import MIN_ESS, MIN_STEPS_OVER_TAU, RHAT_MAX
-from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.inference.small_signal import verdict
 from fitdf.report.audit_claims import audit_findings
 from fitdf.report.claims import paragraph, rule, say, span
@@ -296,66 +301,89 @@ def _posterior_statement(
     def of(field, kind):
         return [field[k][m] for k, m in fits if (method[k][m] or "mcmc") == kind]
 
-    nested = of(converged, "nested")
-    if nested:
-        values = {
-            "n_conv": sum(bool(c) for c in nested),
-            "n": len(nested),
-            "eff": MIN_EFFECTIVE,
-            "max_err": MAX_LOG_EVIDENCE_ERROR,
-            "ev_low": min(of(evaluations, "nested")),
-            "ev_high": max(of(evaluations, "nested")),
-            "err_low": min(of(evidence_error, "nested")),
-            "err_high": max(of(evidence_error, "nested")),
-        }
-        template = (
-            "Nested sampling: {n_conv} of {n} posteriors meet the convergence rule ({eff} "
-            "effective draws, evidence error <= {max_err:g}), in "
-            + span(values["ev_low"], values["ev_high"], ",.0f", "ev_low", "ev_high")
-            + " likelihood evaluations; evidence errors "
-            + span(values["err_low"], values["err_high"], ".2f", "err_low", "err_high")
-            + "."
-        )
+    if of(converged, "nested"):
         wide = [
             consistent
             for k, m in fits
             for f, consistent in zip(box_factor[k][m] or [], box_consistent[k][m] or [])
             if f is not None and f > 1
         ]
-        if wide:
-            values.update(
-                n_strat=sum(c is not None for c in wide),
-                n_missed=sum(c is False for c in wide),
-                n_old=sum(c is None for c in wide),
-                by=MISSED_BY_ERRORS,
-            )
-            if values["n_missed"]:
-                template += (
-                    " With the prior box widened, {n_missed} of {n_strat} runs missed the "
-                    "posterior the prior's box holds (their own evidence more than {by:g} errors "
-                    "below the exact part inside it): not converged, their evidence the "
-                    "stratified estimate, a lower bound."
-                )
-            elif values["n_strat"] == 1:
-                template += (
-                    " With the prior box widened, the one run did not miss the posterior the "
-                    "prior's box holds."
-                )
-            elif values["n_strat"]:
-                template += (
-                    " With the prior box widened, none of the {n_strat} runs missed the "
-                    "posterior the prior's box holds."
-                )
-            if values["n_old"]:
-                template += (
-                    " {n_old} of the widened boxes hold no stratified estimate (a record "
-                    "from before it): their evidence is not a result."
-                )
-        return say(template, **values)
-    chains = of(converged, "mcmc")
-    if not chains:
+        return _nested_statement(
+            of(converged, "nested"), of(evaluations, "nested"), of(evidence_error, "nested"), wide
+        )
+    if not of(converged, "mcmc"):
         return None
-    ratio, rhat = of(steps_over_tau, "mcmc"), of(rhat_max, "mcmc")
+    return _mcmc_statement(
+        of(converged, "mcmc"),
+        of(steps_over_tau, "mcmc"),
+        of(rhat_max, "mcmc"),
+        of(steps_needed, "mcmc"),
+    )
+
+
+def _nested_statement(nested, evaluations, evidence_error, wide):
+    """:func:`_posterior_statement` of nested sampling: each posterior's ``converged``,
+    likelihood evaluations and evidence error, and each widened box's ``consistent``."""
+    values = {
+        "n_conv": sum(bool(c) for c in nested),
+        "n": len(nested),
+        "eff": MIN_EFFECTIVE,
+        "max_err": MAX_LOG_EVIDENCE_ERROR,
+        "ev_low": min(evaluations),
+        "ev_high": max(evaluations),
+        "err_low": min(evidence_error),
+        "err_high": max(evidence_error),
+    }
+    template = (
+        "Nested sampling: {n_conv} of {n} posteriors meet the convergence rule ({eff} "
+        "effective draws, evidence error <= {max_err:g}), in "
+        + span(values["ev_low"], values["ev_high"], ",.0f", "ev_low", "ev_high")
+        + " likelihood evaluations; evidence errors "
+        + span(values["err_low"], values["err_high"], ".2f", "err_low", "err_high")
+        + "."
+    )
+    if wide:
+        values.update(
+            n_strat=sum(c is not None for c in wide),
+            n_missed=sum(c is False for c in wide),
+            n_old=sum(c is None for c in wide),
+            by=MISSED_BY_ERRORS,
+        )
+        template += _widened_template(values)
+    return say(template, **values)
+
+
+def _widened_template(values) -> str:
+    """The sentences on the widened prior boxes (``n_strat``, ``n_missed``, ``n_old``)."""
+    template = ""
+    if values["n_missed"]:
+        template += (
+            " With the prior box widened, {n_missed} of {n_strat} runs missed the "
+            "posterior the prior's box holds (their own evidence more than {by:g} errors "
+            "below the exact part inside it): not converged, their evidence the "
+            "stratified estimate, a lower bound."
+        )
+    elif values["n_strat"] == 1:
+        template += (
+            " With the prior box widened, the one run did not miss the posterior the "
+            "prior's box holds."
+        )
+    elif values["n_strat"]:
+        template += (
+            " With the prior box widened, none of the {n_strat} runs missed the "
+            "posterior the prior's box holds."
+        )
+    if values["n_old"]:
+        template += (
+            " {n_old} of the widened boxes hold no stratified estimate (a record "
+            "from before it): their evidence is not a result."
+        )
+    return template
+
+
+def _mcmc_statement(chains, ratio, rhat, steps_needed):
+    """:func:`_posterior_statement` of MCMC: each chain's ``converged``, steps over tau,
+    max R-hat and ``steps_needed``."""
     values = {
         "n_conv": sum(bool(c) for c in chains),
         "n": len(chains),
@@ -366,7 +394,7 @@ def _posterior_statement(
         "ratio_high": max(ratio),
         "rhat_low": min(rhat),
         "rhat_high": max(rhat),
-        "n_early": sum(bool(s) for s in of(steps_needed, "mcmc")),
+        "n_early": sum(bool(s) for s in steps_needed),
     }
     return say(
         "MCMC: {n_conv} of {n} chains meet the convergence rule ({taus} autocorrelation times, "

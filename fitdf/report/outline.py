@@ -10,7 +10,8 @@ cycles, the audit, the thesis's curves and the models -- as a list of document b
 
 from __future__ import annotations
 
-from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
+from fitdf.inference.convergence import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
+from fitdf.inference.ranking import PRIOR_NODES
 from fitdf.plots.summary import CAPTION as SUMMARY_CAPTION
 from fitdf.report.block_outline import _block_blocks
 from fitdf.report.claims import text
@@ -26,6 +27,7 @@ from fitdf.report.document import (
     _records_table,
     law,
     law_names,
+    number_word,
     slug,
 )
 from fitdf.report.limit_outline import LIMIT as _LIMIT
@@ -85,68 +87,13 @@ def _settings_text(res, words=None) -> list:
     regenerate = (words or {}).get("claims", {}).get("regenerate") or regenerate_claims(res)
     s, t = res["settings"], res["timing"]
     sampled = "posterior" in s["methods"] and s["posterior_top"] != 0
-    posteriors = (
-        "MCMC (emcee: a discarded pilot, then independent chains) for the best {top} "
-        "least-squares models of each block{skip}: {w} walkers in the pilot, at least {n} "
-        "production steps, extended until converged up to {mx}{ext}{cf}".format(
-            top="all" if s["posterior_top"] is None else s["posterior_top"],
-            skip=(
-                " (not sampled: " + ", ".join(f"`{m}`" for m in s["posterior_skip"]) + ")"
-                if s.get("posterior_skip")
-                else ""
-            ),
-            w="2 d + 2 (d sampled dimensions)" if s["n_walkers"] is None else s["n_walkers"],
-            n=s["n_steps"],
-            mx=s.get("max_steps") or s["n_steps"],
-            ext=(
-                f" ({s['extend_steps']} for a chain that mixes but is short of R-hat or ESS)"
-                if s.get("extend_steps")
-                else ""
-            ),
-            cf=(
-                f"; {s['closed_form_step_factor']} times as many for the laws in closed form "
-                "(cheaper per step)"
-                if s.get("closed_form_step_factor", 1) != 1
-                else ""
-            ),
-        )
-        if sampled
-        else "no posterior sampling"
-    )
-    if s.get("sampler") == "nested" and sampled:
-        where = s.get("posterior_blocks")
-        posteriors = (
-            "posteriors and their Bayesian evidence by nested sampling (nautilus, {live} live "
-            "points, {nets} per bound, up to {mx:,} likelihood evaluations; converged at {eff} effective draws and "
-            "an evidence error of at most {err}) for the best {top} least-squares models of "
-            "{where}{sens}".format(
-                live=s["nested_live"],
-                nets=_networks(s.get("nested_networks", 4)),
-                mx=s["nested_max_evaluations"],
-                eff=MIN_EFFECTIVE,
-                err=MAX_LOG_EVIDENCE_ERROR,
-                top="all" if s["posterior_top"] is None else s["posterior_top"],
-                where="each block" if not where else ", ".join(where),
-                sens=(
-                    f"; the evidence again with the prior box halved and doubled for the best "
-                    f"{s['sensitivity_top']} of each block"
-                    if s.get("sensitivity_top")
-                    else ""
-                ),
-            )
-        )
-    cv = (
-        f"leave-one-frequency-out cross-validation for the best {s['cv_top'] if s['cv_top'] is not None else 'all'} "
-        "models ("
-        + (
-            "each fold polished from the block's optimum"
-            if s["cv_starts"] is None
-            else f"{s['cv_starts']} starts per fold"
-        )
-        + ")"
-        if s["cv_top"] != 0
-        else "no cross-validation"
-    )
+    if not sampled:
+        posteriors = "no posterior sampling"
+    elif s.get("sampler") == "nested":
+        posteriors = _nested_text(s)
+    else:
+        posteriors = _mcmc_text(s)
+    cv = _cv_text(s)
     return [
         UL(
             [
@@ -172,6 +119,77 @@ def _settings_text(res, words=None) -> list:
             ]
         )
     ]
+
+
+def _mcmc_text(s) -> str:
+    """The settings' MCMC posteriors (``s``: ``results.json``'s settings)."""
+    return (
+        "MCMC (emcee: a discarded pilot, then independent chains) for the best {top} "
+        "least-squares models of each block{skip}: {w} walkers in the pilot, at least {n} "
+        "production steps, extended until converged up to {mx}{ext}{cf}".format(
+            top="all" if s["posterior_top"] is None else s["posterior_top"],
+            skip=(
+                " (not sampled: " + ", ".join(f"`{m}`" for m in s["posterior_skip"]) + ")"
+                if s.get("posterior_skip")
+                else ""
+            ),
+            w="2 d + 2 (d sampled dimensions)" if s["n_walkers"] is None else s["n_walkers"],
+            n=s["n_steps"],
+            mx=s.get("max_steps") or s["n_steps"],
+            ext=(
+                f" ({s['extend_steps']} for a chain that mixes but is short of R-hat or ESS)"
+                if s.get("extend_steps")
+                else ""
+            ),
+            cf=(
+                f"; {s['closed_form_step_factor']} times as many for the laws in closed form "
+                "(cheaper per step)"
+                if s.get("closed_form_step_factor", 1) != 1
+                else ""
+            ),
+        )
+    )
+
+
+def _nested_text(s) -> str:
+    """The settings' nested-sampling posteriors (``s``: ``results.json``'s settings)."""
+    where = s.get("posterior_blocks")
+    return (
+        "posteriors and their Bayesian evidence by nested sampling (nautilus, {live} live "
+        "points, {nets} per bound, up to {mx:,} likelihood evaluations; converged at {eff} effective draws and "
+        "an evidence error of at most {err}) for the best {top} least-squares models of "
+        "{where}{sens}".format(
+            live=s["nested_live"],
+            nets=_networks(s.get("nested_networks", 4)),
+            mx=s["nested_max_evaluations"],
+            eff=MIN_EFFECTIVE,
+            err=MAX_LOG_EVIDENCE_ERROR,
+            top="all" if s["posterior_top"] is None else s["posterior_top"],
+            where="each block" if not where else ", ".join(where),
+            sens=(
+                f"; the evidence again with the prior box halved and doubled for the best "
+                f"{s['sensitivity_top']} of each block"
+                if s.get("sensitivity_top")
+                else ""
+            ),
+        )
+    )
+
+
+def _cv_text(s) -> str:
+    """The settings' cross-validation (``s``: ``results.json``'s settings)."""
+    if s["cv_top"] == 0:
+        return "no cross-validation"
+    return (
+        f"leave-one-frequency-out cross-validation for the best {s['cv_top'] if s['cv_top'] is not None else 'all'} "
+        "models ("
+        + (
+            "each fold polished from the block's optimum"
+            if s["cv_starts"] is None
+            else f"{s['cv_starts']} starts per fold"
+        )
+        + ")"
+    )
 
 
 def _run_time_text(settings: dict, t: dict) -> str:
@@ -259,8 +277,9 @@ def _cross_blocks(res):
             "different DF factors, see the audit). Data at one impedance do not determine the series resistance "
             "(winding, source and leads: it trades against the core's current scale), and the prediction "
             "depends on it, so it is averaged over the resistance's prior: the prediction RMS is that of the "
-            "prior-weighted mean prediction, and its spread the RMS at the prior's three quadrature nodes "
-            "(median and median x/÷ e^(1.73 sigma))."
+            "prior-weighted mean prediction, and its spread the RMS at the prior's "
+            f"{number_word(len(PRIOR_NODES))} quadrature nodes "
+            f"(median and median x/÷ e^({max(PRIOR_NODES):.2f} sigma))."
         ),
     ]
     if not res["cross_impedance"]:

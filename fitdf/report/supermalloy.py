@@ -14,6 +14,7 @@ from pathlib import Path
 from fitdf._json import clean
 from fitdf.inference.matched_flux import matched_flux
 from fitdf.plots.permeability import plot_matched_flux
+from fitdf.report.document import number_word
 
 __all__ = [
     "supermalloy_fits",
@@ -22,6 +23,7 @@ __all__ = [
     "sentence_fields",
     "supermalloy_figure",
     "RISE_WORDS",
+    "MIN_FREQUENCIES",
     "FIGURE",
 ]
 
@@ -41,6 +43,10 @@ RISE_WORDS = {
         "at small flux it rises with flux as the laws do",
     ),
 }
+#: The flux levels whose power law in frequency the sentences state: those this many
+#: frequencies reach at least (through two the law passes exactly, with no scatter to judge it).
+MIN_FREQUENCIES = 3
+
 #: File name of the figure under the report's figure folder.
 FIGURE = "supermalloy_matched_flux.png"
 
@@ -106,7 +112,7 @@ def _shape(mu) -> str:
 def sentence_fields(rec: dict) -> dict:
     """The parts of the record the sentences read, and the words they choose: ``common``
     (the per-level row at the common level), ``at_common`` (its per-frequency rows, by frequency), ``levels`` (the
-    per-level rows with at least three frequencies), ``pairs`` (those with two), ``deepest`` (the per-frequency small-flux
+    per-level rows with at least :data:`MIN_FREQUENCIES` frequencies), ``pairs`` (those with two), ``deepest`` (the per-frequency small-flux
     row of the smallest flux), ``small`` (the small-flux rows, by frequency), ``dynamic``
     (whether a refit is in the record); ``flux_word`` ("rises" when every frequency's
     ``mu'`` rises from its smallest flux to the common level), ``steep`` (:data:`RISE_WORDS`'s
@@ -133,7 +139,7 @@ def sentence_fields(rec: dict) -> dict:
     return {
         "common": next(r for r in by_level if r["level_vs"] == common),
         "at_common": at_common,
-        "levels": [r for r in by_level if r["n_frequencies"] >= 3],
+        "levels": [r for r in by_level if r["n_frequencies"] >= MIN_FREQUENCIES],
         "pairs": [r for r in by_level if r["n_frequencies"] == 2],
         "deepest": deepest,
         "small": small,
@@ -155,10 +161,19 @@ def supermalloy_sentences(rec: dict, law_name=_code) -> dict[str, str]:
     matched flux, what the laws miss at small flux, the quality factor of the smallest
     readings, and the Findings' bullet. ``law_name``: how to name a law from its code name."""
     s = sentence_fields(rec)
-    c, deep = s["common"], s["deepest"]
     static = rec["fits"]["static"]
+    return {
+        "matched": _matched_sentence(s, static, law_name),
+        "small_flux": _small_flux_sentence(s),
+        "quality": _quality_sentence(s),
+        "finding": _finding_sentence(s, static, law_name),
+    }
+
+
+def _matched_sentence(s: dict, static: dict, law_name) -> str:
+    """What the comparison finds at matched flux (``s``: :func:`sentence_fields`)."""
+    c = s["common"]
     freqs = [_f(r["frequency_hz"]) for r in s["at_common"]]
-    shape = s["shape"]
     matched = (
         f"Supermalloy's series permeability mu' (Table B.4, each reading inverted through the "
         f"circuit of Fig 5.10 with the series resistance R_source + r_series = "
@@ -167,7 +182,7 @@ def supermalloy_sentences(rec: dict, law_name=_code) -> dict[str, str]:
         f"frequencies are compared at matched flux. At {_mv(c['level_vs'])} mV s, the smallest flux all "
         f"{c['n_frequencies']} frequencies reach, the rows give mu' "
         f"{_list([_k(r['mu']) for r in s['at_common']])} at {_list(freqs)} c/s: "
-        f"{_g(c['ratio'])}x between the largest and the smallest, {shape}, "
+        f"{_g(c['ratio'])}x between the largest and the smallest, {s['shape']}, "
         f"{_g(c['first_over_last'])}x from {freqs[0]} to {freqs[-1]} c/s. A power law "
         f"mu' ~ f^s through them has s = {_s(c['slope'])} (95 % interval {_s(c['slope_lo'])} to "
         f"{_s(c['slope_hi'])}); the frequencies scatter {100 * c['scatter']:.3g} % (RMS) about it, "
@@ -179,7 +194,7 @@ def supermalloy_sentences(rec: dict, law_name=_code) -> dict[str, str]:
         return _list([_s(r[key]) for r in levels])
 
     matched += (
-        f" At the {len(levels)} flux levels three or more frequencies reach "
+        f" At the {len(levels)} flux levels {number_word(MIN_FREQUENCIES)} or more frequencies reach "
         f"({_list([_mv(r['level_vs']) for r in levels])} mV s) s = {slopes('slope')}; the "
         f"95 % interval holds the static law's slope ({slopes('slope_static')}) at "
         f"{sum(bool(r['contains_static']) for r in levels)} of {len(levels)}"
@@ -189,7 +204,12 @@ def supermalloy_sentences(rec: dict, law_name=_code) -> dict[str, str]:
             f" and that of its refit with rate-dependent losses ({slopes('slope_dynamic')}) "
             f"at {sum(bool(r['contains_dynamic']) for r in levels)} of {len(levels)}"
         )
-    matched += "."
+    return matched + "."
+
+
+def _small_flux_sentence(s: dict) -> str:
+    """What the laws miss at small flux (``s``: :func:`sentence_fields`)."""
+    deep = s["deepest"]
     dyn = (
         f", its refit with rate-dependent losses {_g(deep['rise_dynamic'])}x"
         if s["dynamic"]
@@ -210,7 +230,8 @@ def supermalloy_sentences(rec: dict, law_name=_code) -> dict[str, str]:
     )
     if s["pairs"]:
         small_flux += (
-            f" Below {_mv(levels[0]['level_vs'])} mV s fewer than three frequencies reach, so "
+            f" Below {_mv(s['levels'][0]['level_vs'])} mV s fewer than "
+            f"{number_word(MIN_FREQUENCIES)} frequencies reach, so "
             "amplitude and rate are not told apart there: "
             + "; ".join(
                 f"at {_mv(r['level_vs'])} mV s the {_f(r['frequencies_hz'][0])} c/s rows give "
@@ -219,21 +240,32 @@ def supermalloy_sentences(rec: dict, law_name=_code) -> dict[str, str]:
             )
             + "."
         )
+    return small_flux
+
+
+def _quality_sentence(s: dict) -> str:
+    """The quality factor of each frequency's smallest reading (``s``: :func:`sentence_fields`)."""
     qs = [
         f"{_g(r['q'])} (above {_g(r['q_lo'])})"
         if r["q_hi"] is None
         else f"{_g(r['q'])} ({_g(r['q_lo'])}-{_g(r['q_hi'])})"
         for r in s["small"]
     ]
-    quality = (
+    return (
         "The quality factor Q = mu'/mu'' of each frequency's smallest reading, with its range "
         f"at printed precision, is {_list(qs)} at "
         f"{_list([_f(r['frequency_hz']) for r in s['small']])} c/s."
     )
-    finding = (
+
+
+def _finding_sentence(s: dict, static: dict, law_name) -> str:
+    """The Findings' bullet (``s``: :func:`sentence_fields`)."""
+    c, deep = s["common"], s["deepest"]
+    freqs = [_f(r["frequency_hz"]) for r in s["at_common"]]
+    return (
         f"Supermalloy (Table B.4, {law_name(static['model'])}) at matched flux: at "
         f"{_mv(c['level_vs'])} mV s mu' differs {_g(c['ratio'])}x over {freqs[0]}-{freqs[-1]} c/s, "
-        f"{shape} (power law f^{_s(c['slope'])}, 95 % interval {_s(c['slope_lo'])} to "
+        f"{s['shape']} (power law f^{_s(c['slope'])}, 95 % interval {_s(c['slope_lo'])} to "
         f"{_s(c['slope_hi'])}); {s['rise_short']} "
         f"({_f(deep['frequency_hz'])} c/s, {_mv(deep['flux_vs'])} to {_mv(deep['common_vs'])} mV s: "
         f"rows {_g(deep['rise'])}x, static law {_g(deep['rise_static'])}x"
@@ -243,7 +275,6 @@ def supermalloy_sentences(rec: dict, law_name=_code) -> dict[str, str]:
             else ")."
         )
     )
-    return {"matched": matched, "small_flux": small_flux, "quality": quality, "finding": finding}
 
 
 def supermalloy_figure(rec: dict | None, figdir) -> str | None:
