@@ -396,6 +396,40 @@ def test_the_claims_of_a_record_of_many_laws_are_made_again():
     assert {"conclusion.ties", "block.posteriors", "block.disagreement", "summary.block"} <= kinds
 
 
+def test_the_report_states_each_rule_from_its_constant(monkeypatch):
+    """The convergence rule, the Kass-Raftery scale and the quadrature nodes the report
+    states are rendered from the constants the code applies: changing one changes the text."""
+    import fitdf.report.block_outline as block_outline
+    import fitdf.report.outline as outline
+
+    results = read_results(COMMITTED)
+    before = render_markdown(results)
+    assert (
+        "converged means at least 400 effective draws (Kish) and an evidence error of at most 0.3."
+        in before
+    )
+    assert (
+        "(2 ln B: below 2 not worth more than a bare mention, 2-6 positive, 6-10 strong, above 10 very strong)"
+        in before
+    )
+    assert "converged at 400 effective draws and an evidence error of at most 0.3)" in before
+    assert "the prior's three quadrature nodes (median and median x/÷ e^(1.73 sigma))" in before
+    monkeypatch.setattr(block_outline, "MIN_EFFECTIVE", 401)
+    monkeypatch.setattr(block_outline, "MAX_LOG_EVIDENCE_ERROR", 0.25)
+    monkeypatch.setattr(block_outline, "_KASS_RAFTERY", ((2.5, "bare"), (7.0, "positive")))
+    monkeypatch.setattr(outline, "MIN_EFFECTIVE", 402)
+    monkeypatch.setattr(outline, "PRIOR_NODES", (-2.0, -1.0, 0.0, 1.0, 2.0))
+    after = render_markdown(results)
+    assert (
+        "converged means at least 401 effective draws (Kish) and an evidence error of at most 0.25."
+        in after
+    )
+    assert "(2 ln B: below 2.5 bare, 2.5-7 positive, above 7 very strong)" in after
+    assert "converged at 402 effective draws" in after
+    assert "the prior's five quadrature nodes (median and median x/÷ e^(2.00 sigma))" in after
+    assert "400 effective draws (Kish)" not in after
+
+
 def test_the_committed_report_says_what_its_numbers_say():
     """The committed results.json holds its claims, each made again from its fields, and
     they are what this code says of its numbers (read through the schema upgrade,

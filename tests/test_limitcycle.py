@@ -730,6 +730,54 @@ def test_fitted_limit_cycles_need_an_impedance_when_the_data_have_two():
         fitted_limit_cycles("B.1", "K/(s+", [100.0], 0.0, model="constant_width")
 
 
+def test_limit_cycle_names_the_laws_tied_with_the_one_it_uses(b1_fit):
+    """Without --model the law used is the lowest AICc; the laws within TIE_AICC of it (and
+    only those: the boundary is strict) are named in one line with the rule's threshold."""
+    from dataclasses import replace
+
+    from fitdf.inference.selection import TIE_AICC
+
+    low = float(b1_fit.metrics["aicc"])
+    # the law the loop uses keeps its own fit; the others are the same fit under other names
+    # and AICc: one just inside the tie, one exactly at its edge (not a tie), one far
+    delta = {"constant_width": TIE_AICC - 0.01, "rayleigh": TIE_AICC, "preisach": 10.0}
+
+    def runner(jobs, desc):
+        out = {}
+        for key in jobs:
+            name = key[1]
+            if name == b1_fit.model:
+                out[key] = b1_fit
+            else:
+                aicc = low + delta.get(name, 50.0)
+                out[key] = replace(b1_fit, model=name, metrics={**b1_fit.metrics, "aicc": aicc})
+        return out
+
+    found = fitted_limit_cycles(
+        "B.1", THESIS_PLANT, [150.0], 0.0, time_scale=2.5, runner=runner,
+        amplitude_range=(0.02, 10),
+    )  # fmt: skip
+    assert found.best is b1_fit
+    assert [r.model for r in found.ties] == ["constant_width"]
+    record = found.to_dict()
+    assert record["ties"] == [
+        {"model": "constant_width", "chain": b1_fit.chain, "delta_aicc": pytest.approx(1.99)}
+    ]
+    lines = [line for line in found.text().splitlines() if line.startswith("Tie:")]
+    assert len(lines) == 1
+    line = " ".join(found.text().split("Tie:")[1].split("\n\n")[0].split())
+    assert f"{b1_fit.model} to constant_width (AICc +1.99)" in line
+    assert f"AICc within {TIE_AICC:g}" in line and "rayleigh" not in line
+    assert f"the cycles below use {b1_fit.model}" in line
+    assert max(map(len, found.text().splitlines())) <= 100
+    # no tie, no line
+    delta["constant_width"] = TIE_AICC
+    assert fitted_limit_cycles(
+        "B.1", THESIS_PLANT, [150.0], 0.0, time_scale=2.5, runner=runner,
+        amplitude_range=(0.02, 10),
+    ).ties == ()  # fmt: skip
+
+
 @pytest.mark.slow
 def test_thesis_comparison_runs():
     """End to end with fits of one law: every row in both settings, the unscaled setting at

@@ -1,7 +1,7 @@
 """Limit cycles of a loop closed around a core fitted to data (what ``fitdf limit-cycle`` computes).
 
 Fits the candidate laws to the core's measured DF (:func:`fitdf.fit`), keeps the lowest
-AICc, and solves harmonic balance (:func:`fitdf.loop.harmonic.limit_cycles`) with the
+AICc (:mod:`fitdf.inference.selection`, which also names the laws tied with it), and solves harmonic balance (:func:`fitdf.loop.harmonic.limit_cycles`) with the
 fitted core's *measured* DF at the chosen source impedance.
 """
 
@@ -13,17 +13,20 @@ from fitdf._json import clean
 from fitdf.errors import OptionError
 from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data
 from fitdf.inference.ranking import best_by_aicc
+from fitdf.inference.selection import TIE_RULES, pick, rank_reason
 from fitdf.loop.harmonic import LimitCycleResponse, limit_cycles
 from fitdf.loop.plant import as_loop_plant
 from fitdf.loop.presentation import limit_cycle_text
 from fitdf.models import model_names
 
-__all__ = ["FittedLimitCycles", "fitted_limit_cycles"]
+__all__ = ["FittedLimitCycles", "fitted_limit_cycles", "tied_fits"]
 
 
 @dataclass(frozen=True)
 class FittedLimitCycles:
-    """The fits tried, the one used (lowest AICc) and the harmonic-balance response."""
+    """The fits tried, the one used (lowest AICc) and the harmonic-balance response;
+    ``ties``: the fits the selection rule calls tied with it (AICc within
+    :data:`~fitdf.inference.selection.TIE_AICC`), best first."""
 
     data: str
     source_impedance: float
@@ -32,6 +35,7 @@ class FittedLimitCycles:
     fits: tuple
     best: object
     response: LimitCycleResponse
+    ties: tuple = ()
 
     def text(self, width: int = 100) -> str:
         """The plant, the core's fit and the cycles of every gain
@@ -63,9 +67,29 @@ class FittedLimitCycles:
                 }
                 for r in self.fits
             ],
+            "ties": [
+                {
+                    "model": r.model,
+                    "chain": r.chain,
+                    "delta_aicc": clean(float(r.metrics["aicc"]) - float(best.metrics["aicc"])),
+                }
+                for r in self.ties
+            ],
+            "tie_rule": TIE_RULES["lsq"],
             "parameters": {k: clean(float(v)) for k, v in best.values.items()},
             **self.response.to_dict(),
         }
+
+
+def tied_fits(fits, best) -> tuple:
+    """The ``fits`` the selection rule calls tied with ``best`` (its step 3 on the fits the
+    rows can rank: :func:`fitdf.inference.selection.pick`), lowest AICc first."""
+    ranked = [r for r in fits if rank_reason(r.metrics["n_points"], r.metrics["n_params"]) is None]
+    rows = [{"method": r.method, "aicc": float(r.metrics["aicc"])} for r in ranked]
+    top, ties = pick(rows)
+    if top is None or ranked[top] is not best:
+        return ()
+    return tuple(sorted((ranked[i] for i in ties), key=lambda r: float(r.metrics["aicc"])))
 
 
 def _fit_law(data, model, chain, seed, source_impedance, n_starts):
@@ -135,6 +159,7 @@ def fitted_limit_cycles(
     else:
         fits = tuple(runner(jobs, "fitting").values())
     best = best_by_aicc(fits)
+    ties = tied_fits(fits, best)
     resp = limit_cycles(
         lp,
         best,
@@ -144,5 +169,5 @@ def fitted_limit_cycles(
         omega_range=omega_range,
     )
     return FittedLimitCycles(
-        str(data), float(source_impedance), int(seed), float(time_scale), fits, best, resp
+        str(data), float(source_impedance), int(seed), float(time_scale), fits, best, resp, ties
     )

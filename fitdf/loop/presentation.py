@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from fitdf._text import TEXT_WIDTH, wrap
 
-__all__ = ["LIMIT_CYCLE_LEGEND", "response_text", "limit_cycle_text"]
+__all__ = ["LIMIT_CYCLE_LEGEND", "response_text", "limit_cycle_text", "tie_line"]
 
 #: The legend under the table of cycles (:mod:`fitdf.loop.harmonic` for Loeb's criterion).
 LIMIT_CYCLE_LEGEND = (
@@ -77,6 +77,20 @@ def response_text(record: dict, width: int = TEXT_WIDTH) -> str:
     return "\n".join(lines)
 
 
+def tie_line(record: dict) -> str:
+    """The one line naming the laws the selection rule calls tied with the law used
+    (``ties`` and ``tie_rule`` of the record), or "" when there are none."""
+    ties = record.get("ties") or []
+    if not ties:
+        return ""
+    others = ", ".join(f"{t['model']} (AICc +{t['delta_aicc']:.2f})" for t in ties)
+    return (
+        f"Tie: the rows do not prefer {record['model']} to {others} by the selection rule "
+        f"({record['tie_rule']}); the cycles below use {record['model']}, the lowest AICc "
+        "(--model picks another)."
+    )
+
+
 def limit_cycle_text(record: dict, width: int = TEXT_WIDTH) -> str:
     """A :class:`~fitdf.loop.fitted.FittedLimitCycles` record (``to_dict``) as text: the
     plant and the fitted core, then :func:`response_text`."""
@@ -88,4 +102,7 @@ def limit_cycle_text(record: dict, width: int = TEXT_WIDTH) -> str:
         "",
         "  ",
     )
+    tie = tie_line(record)
+    if tie:
+        head += wrap(tie, width)
     return "\n".join([*head, response_text(record, width)])
