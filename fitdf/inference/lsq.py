@@ -325,30 +325,8 @@ def fit_lsq(
         (which stopped in a basin an earlier start had reached), ``best_start``,
         ``n_agree``, ``nfev_total`` and the settings.
     """
-    if starts is None:
-        n_starts = n_starts * problem.model.start_multiple
-        starts = _screen(problem, np.random.default_rng(seed), n_screen, n_starts)
-    else:
-        starts = np.atleast_2d(np.asarray(starts, float))
-        if also_screen > 0:
-            screened = _screen(problem, np.random.default_rng(seed), n_screen, also_screen)
-            starts = np.vstack([starts, screened])
-        else:
-            n_screen = 0
-    polished, known = [], []
-    for i, s in enumerate(starts):
-        polished.append(_polish(problem, s, max_nfev, known))
-        out, x, cost = polished[-1]
-        if not out.merged and i + 1 < len(starts):
-            known.append((x, cost, covariance(problem, x)))
-    floor = min(cost for *_, cost in polished)
-    # (a start stopped in a known basin is not restarted: that basin's own start is)
-    polished = [
-        _polish_further(problem, p, max_nfev)
-        if p[2] <= floor + RESTART_WINDOW and not p[0].merged
-        else p
-        for p in polished
-    ]
+    starts, n_screen = _starts(problem, seed, n_starts, n_screen, starts, also_screen)
+    polished = _polish_starts(problem, starts, max_nfev)
     costs = np.array([cost for *_, cost in polished])
     best = int(np.argmin(costs))
     out, x, _ = polished[best]
@@ -365,19 +343,8 @@ def fit_lsq(
         **residual_metrics(predicted, problem.data.measured),
         **information_criteria(wres, problem.ndim),
     }
-    warns = (
-        bound_warnings(problem, x)
-        + identifiability_warnings(problem, intervals)
-        + problem.limit_warnings(x)
-    )
-    if covar is None and uncertainties:
-        warns.append("covariance matrix not available (singular Jacobian): uncertainties are NaN")
-    if not out.success:
-        warns.append(f"least squares did not converge: {out.message}")
-    if n_agree < 2 and len(starts) > 1:
-        warns.append(
-            f"only the winning start reached the best chi-square (of {len(starts)} starts)"
-        )
+    no_covar = covar is None and uncertainties
+    warns = _fit_warnings(problem, x, intervals, no_covar, out, n_agree, len(starts))
     info = {
         "seed": seed,
         "n_screen": n_screen,
@@ -409,3 +376,52 @@ def fit_lsq(
         problem=problem,
         internal=x,
     )
+
+
+def _starts(problem, seed, n_starts, n_screen, starts, also_screen):
+    """The internal vectors :func:`fit_lsq` polishes, and the screen's size (0 when none
+    was screened)."""
+    if starts is None:
+        n_starts = n_starts * problem.model.start_multiple
+        return _screen(problem, np.random.default_rng(seed), n_screen, n_starts), n_screen
+    starts = np.atleast_2d(np.asarray(starts, float))
+    if also_screen <= 0:
+        return starts, 0
+    screened = _screen(problem, np.random.default_rng(seed), n_screen, also_screen)
+    return np.vstack([starts, screened]), n_screen
+
+
+def _polish_starts(problem, starts, max_nfev) -> list:
+    """Each start polished (:func:`_polish`, merging into the basins found before), then the
+    ones near the best cost polished further: ``(out, x, cost)`` per start."""
+    polished, known = [], []
+    for i, s in enumerate(starts):
+        polished.append(_polish(problem, s, max_nfev, known))
+        out, x, cost = polished[-1]
+        if not out.merged and i + 1 < len(starts):
+            known.append((x, cost, covariance(problem, x)))
+    floor = min(cost for *_, cost in polished)
+    # (a start stopped in a known basin is not restarted: that basin's own start is)
+    return [
+        _polish_further(problem, p, max_nfev)
+        if p[2] <= floor + RESTART_WINDOW and not p[0].merged
+        else p
+        for p in polished
+    ]
+
+
+def _fit_warnings(problem, x, intervals, no_covar, out, n_agree, n_starts) -> list[str]:
+    """What :func:`fit_lsq` warns of at the optimum ``x``: bounds, identifiability, the
+    law's limits, a missing covariance, no convergence, a lone winning start."""
+    warns = (
+        bound_warnings(problem, x)
+        + identifiability_warnings(problem, intervals)
+        + problem.limit_warnings(x)
+    )
+    if no_covar:
+        warns.append("covariance matrix not available (singular Jacobian): uncertainties are NaN")
+    if not out.success:
+        warns.append(f"least squares did not converge: {out.message}")
+    if n_agree < 2 and n_starts > 1:
+        warns.append(f"only the winning start reached the best chi-square (of {n_starts} starts)")
+    return warns

@@ -250,6 +250,16 @@ def thesis_limit_cycle_comparison(
         np.isfinite(table["omega_rad_s"]) & np.isfinite(table["amplitude_v"]) & ~table["dies_out"]
     ]
     held = held_out_scales(osc, fits)
+    scales, given = _settings_scales(held, time_scale, gain_scale)
+    df = _predicted_rows(table, fits, scales, amplitude_range, time_domain)
+    df.attrs.update(clean(_record(df, osc, fits, held, given)))
+    df.attrs["statements"] = limit_cycle_statements(df.attrs)
+    return df
+
+
+def _settings_scales(held, time_scale, gain_scale):
+    """Each setting's ``(alpha, beta)`` by table (``unscaled``, ``held_out`` and, with a scale
+    given, ``given``), and the given scales' record (None without)."""
     scales = {
         "unscaled": {name: (1.0, 1.0) for name in THESIS_BLOCKS.values()},
         "held_out": {name: (h["alpha"], h["beta"]) for name, h in held.items()},
@@ -261,6 +271,12 @@ def thesis_limit_cycle_comparison(
             "beta": float(gain_scale) if gain_scale is not None else 1.0,
         }
         scales["given"] = {name: (given["alpha"], given["beta"]) for name in THESIS_BLOCKS.values()}
+    return scales, given
+
+
+def _predicted_rows(table, fits, scales, amplitude_range, time_domain) -> pd.DataFrame:
+    """Every table row predicted in every setting (:func:`thesis_limit_cycle_comparison`'s
+    frame, without its ``attrs``)."""
     parts = []
     dfs = {key: _GridKeptDF(f, key[1]) for key, f in fits.items()}
     for setting, per_block in scales.items():
@@ -288,35 +304,34 @@ def thesis_limit_cycle_comparison(
         "omega_rad_s",
         "dies_out",
     ]
-    df = df[lead + [c for c in df.columns if c not in lead + ["frequency_hz", "source"]]]
+    return df[lead + [c for c in df.columns if c not in lead + ["frequency_hz", "source"]]]
+
+
+def _record(df, osc, fits, held, given) -> dict:
+    """The comparison's ``attrs`` but the statements: the plant, the scales, the summaries of
+    :mod:`fitdf.limit_cycle_tables.summary` and the fits."""
     per_block = per_block_scales(osc, fits)
     values = {k: [s[k] for s in per_block.values()] for k in ("alpha", "beta")}
-    df.attrs.update(
-        clean(
-            {
-                "plant": THESIS_PLANT,
-                "scales": {
-                    "per_block": per_block,
-                    "held_out": held,
-                    "joint": estimate_thesis_scales(osc, fits),
-                    "spread": {
-                        f"{k}_{end}": fn(v)
-                        for k, v in values.items()
-                        for end, fn in (("min", min), ("max", max))
-                    },
-                    "given": given,
-                },
-                **summary.summarise(df),
-                "fits": {
-                    THESIS_BLOCKS[k]: {
-                        "model": f.model,
-                        "values": dict(f.values),
-                        "rms_complex": f.metrics["rms_complex"],
-                    }
-                    for k, f in fits.items()
-                },
+    return {
+        "plant": THESIS_PLANT,
+        "scales": {
+            "per_block": per_block,
+            "held_out": held,
+            "joint": estimate_thesis_scales(osc, fits),
+            "spread": {
+                f"{k}_{end}": fn(v)
+                for k, v in values.items()
+                for end, fn in (("min", min), ("max", max))
+            },
+            "given": given,
+        },
+        **summary.summarise(df),
+        "fits": {
+            THESIS_BLOCKS[k]: {
+                "model": f.model,
+                "values": dict(f.values),
+                "rms_complex": f.metrics["rms_complex"],
             }
-        )
-    )
-    df.attrs["statements"] = limit_cycle_statements(df.attrs)
-    return df
+            for k, f in fits.items()
+        },
+    }

@@ -92,9 +92,9 @@ def _fail(what: str, col: int, found: str = ""):
     raise OptionError(f"plant: {what} at column {col}" + (f" (found {found})" if found else ""))
 
 
-def _python_source(text: str) -> tuple[str, list[int]]:
-    """Tokenize and check the order of operands and operators: a Python expression with the
-    implicit ``*`` written (and ``**`` for ``^``), and the column in ``text`` of each character."""
+def _tokens(text: str) -> list[tuple]:
+    """The tokens of ``text``: ``(kind, text, column)``, kind ``"num"``, ``"sym"`` (``s``,
+    ``K``, one a letter) or ``"op"``; a character or number the grammar has not is an error."""
     bad = _BAD_CHAR.search(text)
     if bad:
         _fail(f"unexpected character {bad.group()!r}", bad.start() + 1)
@@ -136,6 +136,14 @@ def _python_source(text: str) -> tuple[str, list[int]]:
     except tokenize.TokenError as exc:  # at the end inside parentheses: reported below, at the '('
         if text[stop:].strip():  # Python >= 3.12 stops at literals such as "3e+" or "1_"
             _fail(f"cannot read the text ({exc.args[0]})", stop + 1)
+    return toks
+
+
+def _python_source(text: str) -> tuple[str, list[int]]:
+    """Tokenize (:func:`_tokens`) and check the order of operands and operators: a Python
+    expression with the implicit ``*`` written (and ``**`` for ``^``), and the column in
+    ``text`` of each character."""
+    toks = _tokens(text)
     if not toks:
         raise OptionError("plant: empty transfer function (column 1)")
     out, cols, stack = [], [], []  # stack: the open '(' and pending unary signs, with their columns
