@@ -397,9 +397,11 @@ def test_the_claims_of_a_record_of_many_laws_are_made_again():
 
 
 def test_the_report_states_each_rule_from_its_constant(monkeypatch):
-    """The convergence rule, the Kass-Raftery scale and the quadrature nodes the report
-    states are rendered from the constants the code applies: changing one changes the text."""
+    """The convergence rule, the Kass-Raftery scale, the quadrature nodes and the prior boxes
+    the report states are rendered from the constants the code applies: changing one changes
+    the text."""
     import fitdf.report.block_outline as block_outline
+    import fitdf.report.document as document
     import fitdf.report.outline as outline
 
     results = read_results(COMMITTED)
@@ -414,11 +416,13 @@ def test_the_report_states_each_rule_from_its_constant(monkeypatch):
     )
     assert "converged at 400 effective draws and an evidence error of at most 0.3)" in before
     assert "the prior's three quadrature nodes (median and median x/÷ e^(1.73 sigma))" in before
+    assert "halved (about the best fit) and doubled (about its centre); a shift" in before
     monkeypatch.setattr(block_outline, "MIN_EFFECTIVE", 401)
     monkeypatch.setattr(block_outline, "MAX_LOG_EVIDENCE_ERROR", 0.25)
     monkeypatch.setattr(block_outline, "_KASS_RAFTERY", ((2.5, "bare"), (7.0, "positive")))
     monkeypatch.setattr(outline, "MIN_EFFECTIVE", 402)
     monkeypatch.setattr(outline, "PRIOR_NODES", (-2.0, -1.0, 0.0, 1.0, 2.0))
+    monkeypatch.setattr(document, "SENSITIVITY_FACTORS", (0.5, 3.0))
     after = render_markdown(results)
     assert (
         "converged means at least 401 effective draws (Kish) and an evidence error of at most 0.25."
@@ -428,6 +432,8 @@ def test_the_report_states_each_rule_from_its_constant(monkeypatch):
     assert "converged at 402 effective draws" in after
     assert "the prior's five quadrature nodes (median and median x/÷ e^(2.00 sigma))" in after
     assert "400 effective draws (Kish)" not in after
+    assert "halved (about the best fit) and tripled (about its centre); a shift" in after
+    assert "the prior box halved and tripled for the best 2 of each block" in after
 
 
 def test_the_committed_report_says_what_its_numbers_say():

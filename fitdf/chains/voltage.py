@@ -367,10 +367,27 @@ def _search(
     return F[:, 6], C[:, 0], F[:, 8], C[:, 1], X[:, 2]
 
 
+def _initial_currents(pts, live, hi, initial, P):
+    """Where the coarse search starts at the ``live`` points: ``initial`` (broadcast to the
+    ``P`` points) where finite and positive, :func:`_guess` elsewhere, clipped to
+    ``(0, V/R]`` (``hi``)."""
+    x0 = None
+    if initial is not None:
+        x0 = np.broadcast_to(np.asarray(initial, float), (P,))[live].copy()
+        ok = np.isfinite(x0) & (x0 > 0)
+        x0[~ok] = np.nan
+    if x0 is None or np.isnan(x0).any():
+        g = _guess(pts, live, hi)
+        x0 = g if x0 is None else np.where(np.isnan(x0), g, x0)
+    return np.clip(x0, hi * 1e-30, hi)
+
+
 def _solve(model, V, f, R, kw, initial, st: VoltageSettings, rate=None):
     """Peak currents, DFs (without gain), fine nodes ``u`` and the largest current tried
     with ``G > 0`` (NaN: none) for flat point arrays. ``rate``: ``(c_cl, c_ex)`` per point
-    of the rate-dependent current (:mod:`fitdf.chains.dynamic`), or None."""
+    of the rate-dependent current (:mod:`fitdf.chains.dynamic`), or None. One function:
+    the fine stage re-places nodes inside the search on state (nodes, placements, shares)
+    that the stages share, which a split would hand through every call."""
     P = V.size
     pts = _Points(model, V, f, R, kw, st.threads, rate)
     current = np.zeros(P)
@@ -381,15 +398,7 @@ def _solve(model, V, f, R, kw, initial, st: VoltageSettings, rate=None):
     if not live.size:
         return current, df, u_fine, below
     hi = V[live] / R[live]
-    x0 = None
-    if initial is not None:
-        x0 = np.broadcast_to(np.asarray(initial, float), (P,))[live].copy()
-        ok = np.isfinite(x0) & (x0 > 0)
-        x0[~ok] = np.nan
-    if x0 is None or np.isnan(x0).any():
-        g = _guess(pts, live, hi)
-        x0 = g if x0 is None else np.where(np.isnan(x0), g, x0)
-    x0 = np.clip(x0, hi * 1e-30, hi)
+    x0 = _initial_currents(pts, live, hi, initial, P)
     # 1. coarse root
     u_c = np.linspace(-1.0, 1.0, st.coarse_nodes)
 
@@ -593,6 +602,21 @@ class SteadyState:
     frequency: float
 
 
+def _jump_edge(rising, lo, hi):
+    """The edge of a jump of the peak current between ``lo`` (whose rising half reaches its
+    own amplitude) and ``hi`` (falls short of it), by bisection to a relative 1e-7;
+    ``rising(I)`` is ``(phi0, wave, result)``, ``result[0]`` the largest current reached."""
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        if rising(mid)[2][0] >= mid:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-7 * hi:
+            break
+    return lo
+
+
 def steady_state_waveform(
     model, amplitude, frequency, source_impedance, model_theta, chain_theta, *, chain=VoltageChain
 ) -> SteadyState:
@@ -602,7 +626,8 @@ def steady_state_waveform(
     falling half starts from where the rising half ended and follows the falling branch of
     the amplitude actually reached, shifted for flux continuity -- the loop operator of a
     time-domain simulation. Half-wave symmetry of the result is therefore a check, not an
-    assumption.
+    assumption. One function, read as the period runs: both halves use the one point's
+    prepared state (nodes, parameters, rate coefficients).
     """
     st = chain.settings
     model, shape, V, f, R, flat, mkw, ckw = chain._prepare(
@@ -654,16 +679,7 @@ def steady_state_waveform(
         # the root sits on the edge of a jump of the peak current (the flux reaches a
         # saturation flat exactly at the half period) and I fell just beyond it: the steady
         # state is the limit from below, where the jump happens; bisect towards the edge
-        lo, hi = float(below[0]), I
-        for _ in range(30):
-            mid = 0.5 * (lo + hi)
-            if rising(mid)[2][0] >= mid:
-                lo = mid
-            else:
-                hi = mid
-            if hi - lo <= 1e-7 * hi:
-                break
-        I = lo
+        I = _jump_edge(rising, float(below[0]), I)
         phi0, up, r = rising(I)
     n1 = int(r[3])
     up = up[: n1 + 1]

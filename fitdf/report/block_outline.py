@@ -26,6 +26,7 @@ from fitdf.report.document import (
     H,
     P,
     _records_table,
+    box_factors,
     fmt,
     law,
     number_word,
@@ -310,7 +311,7 @@ def _nested_blocks(rec, fits, names):
         out += [
             P(
                 "How the evidence depends on the prior: the evidence with every parameter's box "
-                "halved (about the best fit) and doubled (about its centre); a shift of "
+                f"{box_factors(where=True)}; a shift of "
                 "-d ln(factor) is the Occam factor of d parameters the data determine. A box inside "
                 "the prior's needs no new sampling: its evidence is the posterior's share inside it "
                 "times the ratio of the two priors' densities there. A wider box holds the prior's, "

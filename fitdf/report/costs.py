@@ -29,6 +29,7 @@ from pathlib import Path
 
 from fitdf.inference.evidence import SAMPLED_FACTORS
 from fitdf.plots.thesis_graphs import THESIS_GRAPHS
+from fitdf.report.document import box_factors
 from fitdf.report.progress import Phase, duration_text, schedule_length
 from fitdf.report.upgrade import upgrade
 
@@ -321,7 +322,7 @@ def _what(settings, models, blocks, lsq_keys, folds, n, kind, posterior, cross) 
             + (" and evidence (nested sampling)" if kind == "nested" else " (MCMC)")
             + (
                 f", {_plural(min(settings.sensitivity_top, n_sampled) * len(posterior), 'evidence')}"
-                " again with the prior box halved and doubled"
+                f" again with the prior box {box_factors()}"
                 if kind == "nested" and settings.sensitivity_top
                 else ""
             )

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import re
 
+from fitdf.inference.evidence import SENSITIVITY_FACTORS
+
 __all__ = ["fmt", "slug", "law_names", "law", "H", "P", "UL", "TABLE", "IMG", "DETAILS"]
 
 
@@ -19,6 +21,22 @@ _NUMBER_WORDS = ("no", "one", "two", "three", "four", "five", "six", "seven", "e
 def number_word(n: int) -> str:
     """``3`` -> "three": a count below ten in words, as the report writes it; larger as digits."""
     return _NUMBER_WORDS[n] if 0 <= n < len(_NUMBER_WORDS) else str(n)
+
+
+_FACTOR_WORDS = {0.5: "halved", 2.0: "doubled", 3.0: "tripled"}
+
+
+def box_factors(where: bool = False) -> str:
+    """How the evidence's prior boxes are changed, from
+    :data:`fitdf.inference.evidence.SENSITIVITY_FACTORS`: "halved and doubled"; with
+    ``where``, "halved (about the best fit) and doubled (about its centre)"."""
+    words = []
+    for f in SENSITIVITY_FACTORS:
+        word = _FACTOR_WORDS.get(f, f"scaled by {f:g}")
+        if where:
+            word += " (about the best fit)" if f < 1 else " (about its centre)"
+        words.append(word)
+    return " and ".join(words) if len(words) < 3 else ", ".join(words[:-1]) + ", and " + words[-1]
 
 
 def fmt(v, digits=4) -> str:

@@ -25,6 +25,7 @@ from fitdf.report.document import (
     H,
     P,
     _records_table,
+    box_factors,
     law,
     law_names,
     number_word,
@@ -167,7 +168,7 @@ def _nested_text(s) -> str:
             top="all" if s["posterior_top"] is None else s["posterior_top"],
             where="each block" if not where else ", ".join(where),
             sens=(
-                f"; the evidence again with the prior box halved and doubled for the best "
+                f"; the evidence again with the prior box {box_factors()} for the best "
                 f"{s['sensitivity_top']} of each block"
                 if s.get("sensitivity_top")
                 else ""

@@ -111,9 +111,10 @@ class ReportSettings:
         converged: :func:`fitdf.inference.mcmc.is_converged`) and walkers (None: twice the
         dimensions plus two, the fewest differential evolution allows).
     extend_steps : int or None
-        A chain that reaches ``max_steps`` on course for 50 autocorrelation times but is
-        short of R-hat or ESS goes on up to this many steps, while 50 autocorrelation times
-        fit in them (``fit_mcmc(extend_steps=...)``); the chains too slow for ``max_steps``
+        A chain that reaches ``max_steps`` on course for
+        :data:`~fitdf.inference.convergence.MIN_STEPS_OVER_TAU` autocorrelation times but is
+        short of R-hat or ESS goes on up to this many steps, while that many autocorrelation
+        times fit in them (``fit_mcmc(extend_steps=...)``); the chains too slow for ``max_steps``
         still stop at it, or before.
     closed_form_step_factor : int
         ``max_steps`` and ``extend_steps`` are this many times longer for the laws whose
