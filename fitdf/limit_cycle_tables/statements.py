@@ -11,7 +11,12 @@ from __future__ import annotations
 
 import math
 
+from fitdf.limit_cycle_tables.summary import LEVEL_CONFIDENCE
+
 __all__ = ["limit_cycle_statements", "SETTING_WORDS", "exp_or_none"]
+
+#: The intervals' confidence as the sentences write it (``95 %``).
+_PERCENT = f"{100 * LEVEL_CONFIDENCE:g} %"
 
 #: How a sentence names each setting of the scales.
 SETTING_WORDS = {
@@ -114,7 +119,7 @@ def _levels(ag) -> str:
             per.append(f"{k} of {n} blocks {SETTING_WORDS[setting]}{_which(names)}")
         parts.append(f"the {word} in {' and '.join(per)}")
     return (
-        "The level of the prediction is within its rows' scatter (the 95 % interval of the "
+        f"The level of the prediction is within its rows' scatter (the {_PERCENT} interval of the "
         f"mean log ratio holds 0) for {parts[0]}, and for {parts[1]}."
     )
 
@@ -127,7 +132,7 @@ def _trends(tr) -> str:
         parts.append(
             f"the exponent of {word} in the system gain, measured "
             f"{_range(b[q]['measured_slope'] for b in blocks)} across the blocks, is predicted "
-            f"within its 95 % interval in {k} of {n} blocks (predicted "
+            f"within its {_PERCENT} interval in {k} of {n} blocks (predicted "
             f"{_range(b[q]['predicted_slope'] for b in blocks)})"
         )
     return f"Unscaled, {parts[0]}; {parts[1]}."

@@ -16,6 +16,7 @@ from fitdf.inference.convergence import (
 )
 from fitdf.inference.ranking import _KASS_RAFTERY
 from fitdf.inference.selection import TIE_AICC
+from fitdf.plots.posterior import LEVELS as CORNER_LEVELS
 from fitdf.report.conclusion import OUTSIDE
 from fitdf.report.criteria import best_by
 from fitdf.report.document import (
@@ -60,7 +61,9 @@ CORNER_CAPTION = (
     "The posterior of the best law's parameters (log10 of those sampled in log): on the "
     "diagonal the histogram of each parameter with dashed lines at its 16th, 50th and 84th "
     "percentiles (its title: the median, plus and minus the distance to them); below it the "
-    "draws of each pair, contours enclosing 12, 39, 68 and 86 % of them; blue lines and "
+    "draws of each pair, contours enclosing "
+    + ", ".join(f"{100 * lv:.0f}" for lv in CORNER_LEVELS[:-1])
+    + f" and {100 * CORNER_LEVELS[-1]:.0f} % of them; blue lines and "
     "squares: the least-squares optimum."
 )
 

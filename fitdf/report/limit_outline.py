@@ -9,9 +9,13 @@ gains against the measured brackets, the trends, and the held-out rows.
 
 from __future__ import annotations
 
+from fitdf.limit_cycle_tables.summary import LEVEL_CONFIDENCE
 from fitdf.report.document import DETAILS, IMG, TABLE, UL, H, P, _records_table, fmt, law, law_names
 
 __all__ = ["LIMIT", "limit_blocks"]
+
+#: The intervals' confidence as the tables' headers write it (``95 %``).
+_PERCENT = f"{100 * LEVEL_CONFIDENCE:g} %"
 
 LIMIT = "Limit cycles (Tables 5.1, 5.2)"
 
@@ -88,10 +92,10 @@ def _agreement_table(attrs) -> list:
                 "rows predicted",
                 "amplitude: median predicted / measured",
                 "RMS log ratio",
-                "level within the rows' scatter (95 %)",
+                f"level within the rows' scatter ({_PERCENT})",
                 "omega: median predicted / measured",
                 "RMS log ratio",
-                "level within the rows' scatter (95 %)",
+                f"level within the rows' scatter ({_PERCENT})",
                 "harmonic balance vs simulated: RMS log ratio, amplitude",
                 "omega",
             ],
@@ -180,10 +184,10 @@ def _trend_table(attrs) -> list:
                 "setting",
                 "block",
                 "rows",
-                "amplitude exponent in gain, measured (95 %)",
+                f"amplitude exponent in gain, measured ({_PERCENT})",
                 "predicted",
                 "inside",
-                "omega exponent in gain, measured (95 %)",
+                f"omega exponent in gain, measured ({_PERCENT})",
                 "predicted",
                 "inside",
             ],
