@@ -111,13 +111,13 @@ def test_every_value_the_pages_write_names_a_value_of_the_code():
         assert fitdf_values.render(ref), (page, ref)
     written = {ref.split(":")[0] for _, ref in refs}
     for constant in (
-        "fitdf.inference.nested.MIN_EFFECTIVE",
-        "fitdf.inference.nested.MAX_LOG_EVIDENCE_ERROR",
+        "fitdf.inference.convergence.MIN_EFFECTIVE",
+        "fitdf.inference.convergence.MAX_LOG_EVIDENCE_ERROR",
         "fitdf.inference.nested.fit_nested(max_evaluations)",
         "fitdf.inference.nested.DEFAULT_LIVE",
-        "fitdf.inference.mcmc.RHAT_MAX",
-        "fitdf.inference.mcmc.MIN_ESS",
-        "fitdf.inference.mcmc.MIN_STEPS_OVER_TAU",
+        "fitdf.inference.convergence.RHAT_MAX",
+        "fitdf.inference.convergence.MIN_ESS",
+        "fitdf.inference.convergence.MIN_STEPS_OVER_TAU",
         "fitdf.inference.selection.TIE_AICC",
         "fitdf.inference.selection.TIE_TWO_LN_B",
         "fitdf.inference.selection.TIE_LOO_SE",
