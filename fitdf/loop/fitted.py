@@ -1,8 +1,9 @@
 """Limit cycles of a loop closed around a core fitted to data (what ``fitdf limit-cycle`` computes).
 
 Fits the candidate laws to the core's measured DF (:func:`fitdf.fit`), keeps the lowest
-AICc (:mod:`fitdf.inference.selection`, which also names the laws tied with it), and solves harmonic balance (:func:`fitdf.loop.harmonic.limit_cycles`) with the
-fitted core's *measured* DF at the chosen source impedance.
+AICc (:mod:`fitdf.inference.selection`, which also names the laws tied with it), and solves
+harmonic balance (:func:`fitdf.loop.harmonic.limit_cycles`) with the fitted core's
+*measured* DF at the chosen source impedance.
 """
 
 from __future__ import annotations
