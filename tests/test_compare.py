@@ -6,13 +6,8 @@ import pytest
 from synthetic import synthetic_frame
 
 from fitdf.errors import OptionError
-from fitdf.inference.ranking import (
-    RANK_COLUMNS,
-    cross_impedance,
-    cross_validate,
-    fit_all,
-    ranking_table,
-)
+from fitdf.inference.cross_impedance import cross_impedance
+from fitdf.inference.ranking import RANK_COLUMNS, cross_validate, fit_all, ranking_table
 
 CHAIN = {"r_series": 100.0, "gain": 0.95}
 RIVALS = ["constant_width", "proportional_width", "rayleigh"]

@@ -66,13 +66,14 @@ from fitdf.data.datasets import data_dir
 from fitdf.errors import OptionError
 from fitdf.executor import Executor
 from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data
+from fitdf.inference.cross_impedance import cross_impedance
 from fitdf.inference.evidence import prior_sensitivity
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.nested import DEFAULT_LIVE, DEFAULT_NETWORKS, fit_nested
 from fitdf.inference.problem import FitProblem
-from fitdf.inference.ranking import cross_impedance, cross_validate, ranking_table
+from fitdf.inference.ranking import cross_validate, ranking_table
 from fitdf.jobcache import JobCache, default_cache_folder, run_salt
 from fitdf.machine import machine_record
 from fitdf.models import get_model, model_names
