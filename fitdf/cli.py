@@ -620,6 +620,7 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
     from fitdf._json import clean
     from fitdf.executor import Executor
     from fitdf.inference.cache import comparison_cache
+    from fitdf.inference.posterior_data import write_posteriors
     from fitdf.inference.ranking import compare_fits
 
     per_fit = len(models) * len(args.chain) * (2 if args.method == "both" else 1)
@@ -661,6 +662,10 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
             }
             records.append(clean(record))
             summary.append(clean(_summary_row(src, comparison)))
+            if args.posterior_out:
+                for path in write_posteriors(comparison.results, args.posterior_out):
+                    if not args.quiet:
+                        print(f"fitdf fit: wrote {path}", file=sys.stderr)
             if not args.json:
                 _print_fit(comparison, args, brief=batch)
     if executor.reused and not args.quiet:
@@ -1141,6 +1146,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="ADDRESS",
         help="run the fits on this Dask cluster (default: FITDF_SCHEDULER, else local)",
     )
+    sp.add_argument(
+        "--posterior-out",
+        default=None,
+        metavar="FOLDER",
+        help="write each posterior (--method nested, mcmc or both) to FOLDER as an ArviZ "
+        "netCDF file, <data>_<law>_<chain>_<method>.nc: draws in physical units, pointwise "
+        "log-likelihood, evidence and prior",
+    )
     _add_cache_options(sp, "the rows' contents, options, seed")
 
     sp = add(
@@ -1274,6 +1287,10 @@ def _validate(args):
         check_output_folder("--cache", args.cache)
     if getattr(args, "plot", None) is not None:
         check_output_file("--plot", args.plot)
+    if getattr(args, "posterior_out", None) is not None:
+        if args.method == "lsq":
+            raise OptionError("--posterior-out needs a posterior: --method nested, mcmc or both")
+        check_output_folder("--posterior-out", args.posterior_out)
     if getattr(args, "max_steps", None) is not None and args.max_steps < args.steps:
         raise OptionError("--max-steps must be at least --steps")
     if (

@@ -60,7 +60,7 @@ def test_ranking_columns_and_ties():
     assert table.loc[0, "indistinguishable_from"] == "proportional_width/winding"
     with pytest.raises(OptionError, match="cannot rank by"):
         ranking_table(results, rank_by="nope")
-    with pytest.raises(OptionError, match="needs MCMC"):
+    with pytest.raises(OptionError, match="needs posteriors"):
         ranking_table(results, rank_by="looic")
     assert set(RANK_COLUMNS) >= {"rms_complex", "aicc", "looic"}
 

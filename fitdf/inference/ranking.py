@@ -3,20 +3,21 @@
 Ranking
     One row per (model, chain, method) fitted to the same rows: parameter count, RMS
     complex / magnitude / phase residuals, reduced chi-square, AICc, BIC (see
-    :mod:`fitdf.inference.metrics`), PSIS-LOO and WAIC for MCMC fits, and a cross-validated RMS
-    complex residual (leave one frequency out, fit the rest by least squares, predict
-    it). Default order: AICc, the criterion of the rule that calls a law best
+    :mod:`fitdf.inference.metrics`), PSIS-LOO and WAIC for posteriors (emcee MCMC or
+    nested sampling), the evidence for nested sampling, and a cross-validated RMS complex
+    residual (leave one frequency out, fit the rest by least squares, predict it). Default order: AICc, the criterion of the rule that calls a law best
     (:mod:`fitdf.inference.selection`: a law is ranked when AICc is defined on its rows,
     ``2 n >= k + 2``, and the lowest AICc is best). Two models are called *indistinguishable*
-    when their AICc differ by less than 2 (least squares) or their elpd_loo difference is
-    smaller than twice its standard error ``dse`` (MCMC: :func:`arviz.compare` on the pair;
-    identical pointwise elpd counts as a tie).
+    when their AICc differ by less than 2 (least squares), their elpd_loo difference is
+    smaller than twice its standard error ``dse`` (emcee MCMC: :func:`arviz.compare` on the
+    pair; identical pointwise elpd counts as a tie), or their Bayes factor is not worth more
+    than a bare mention (nested sampling).
 
     Least squares: ``delta_aicc`` is the AICc above the lowest, ``aicc_weight`` the Akaike
     weight ``exp(-delta_aicc / 2)`` normalised over all rows.
-    MCMC rows, compared among themselves with :func:`arviz.compare` (PSIS-LOO, log scale,
-    rebuilt exactly from each fit's stored pointwise elpd): ``elpd_loo_diff`` and
-    ``elpd_loo_dse``, the elpd below the best MCMC row and its standard error, and
+    Posterior rows, compared among themselves with :func:`arviz.compare` (PSIS-LOO, log
+    scale, rebuilt exactly from each fit's stored pointwise elpd): ``elpd_loo_diff`` and
+    ``elpd_loo_dse``, the elpd below the best posterior row and its standard error, and
     ``loo_weight``, the stacking weight. NaN on least-squares rows.
 """
 
@@ -311,7 +312,7 @@ def ranking_table(results, rank_by: str = "aicc", cv: dict | None = None) -> pd.
     for col, values in _loo_comparison(results).items():
         table[col] = values
     if rank_by in ("looic", "waic") and table[rank_by].isna().all():
-        raise OptionError(f"--rank-by {rank_by} needs MCMC fits (use --method mcmc or both)")
+        raise OptionError(f"--rank-by {rank_by} needs posteriors (--method nested, mcmc or both)")
     if rank_by == "log_evidence" and table[rank_by].isna().all():
         raise OptionError("--rank-by log_evidence needs nested-sampling fits (--method nested)")
     key = -table[rank_by] if RANK_COLUMNS[rank_by] else table[rank_by]
@@ -345,7 +346,7 @@ def _bayes_factors(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def _elpd_data(result):
-    """An MCMC result's PSIS-LOO as :class:`arviz.ELPDData` (log scale), or None.
+    """A posterior's PSIS-LOO as :class:`arviz.ELPDData` (log scale), or None.
 
     Rebuilt from ``diagnostics["pointwise_elpd_loo"]``: ``elpd_loo`` and ``se`` are the sum and
     ``sqrt(n var)`` of the pointwise values, as :func:`arviz.loo` computes them; these, the
@@ -371,7 +372,7 @@ def _elpd_data(result):
 
 def _loo_comparison(results) -> dict:
     """``elpd_loo_diff``, ``elpd_loo_dse`` and ``loo_weight`` (stacking) of :func:`arviz.compare`
-    over the MCMC rows with pointwise elpd on the same number of rows; NaN elsewhere."""
+    over the posterior rows with pointwise elpd on the same number of rows; NaN elsewhere."""
     out = {
         c: np.full(len(results), np.nan) for c in ("elpd_loo_diff", "elpd_loo_dse", "loo_weight")
     }
@@ -387,7 +388,7 @@ def _loo_comparison(results) -> dict:
 
 
 def _loo_tie(a, b) -> bool:
-    """Whether two MCMC fits' elpd_loo differ by less than twice the difference's standard error
+    """Whether two posteriors' elpd_loo differ by less than twice the difference's standard error
     (:func:`arviz.compare` on the pair); identical pointwise elpd is a tie."""
     if a is None or b is None or a["loo_i"].size != b["loo_i"].size:
         return False
