@@ -1,15 +1,33 @@
 #!/usr/bin/env python3
 """Compare two results.json files of `fitdf report`, timing fields aside.
 
-Usage: python .ci/compare_results.py OLD/results.json NEW/results.json [--rtol 0]
+Usage: python .ci/compare_results.py OLD/results.json NEW/results.json [--rtol 0] [--as-is]
 Prints every path whose value differs (numbers beyond --rtol) and exits 1 when any does.
 Used to show that a refactoring changes no number.
+
+Both files are first read as the current schema (fitdf/report/upgrade.py of this checkout:
+a file written before a rename, such as `fits_mcmc` -> `fits_posterior`, compares with one
+written after it under the new names); --as-is compares them as written.
 """
 
 import argparse
+import importlib.util
 import json
 import math
 import sys
+from pathlib import Path
+
+#: The checkout's schema upgrade, loaded from its file alone (no numerical stack imported,
+#: and this checkout's, whichever fitdf is installed).
+_UPGRADE = Path(__file__).resolve().parents[1] / "fitdf" / "report" / "upgrade.py"
+
+
+def upgrade_function():
+    spec = importlib.util.spec_from_file_location("_fitdf_report_upgrade", _UPGRADE)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.upgrade
+
 
 SKIP = {"timing", "fitdf_version"}
 
@@ -40,11 +58,17 @@ def main():
     ap.add_argument("old")
     ap.add_argument("new")
     ap.add_argument("--rtol", type=float, default=0.0)
+    ap.add_argument(
+        "--as-is", action="store_true", help="compare the files as written (no schema upgrade)"
+    )
     args = ap.parse_args()
     with open(args.old) as f:
         old = json.load(f)
     with open(args.new) as f:
         new = json.load(f)
+    if not args.as_is:
+        upgrade = upgrade_function()
+        old, new = upgrade(old), upgrade(new)
     diffs = []
     walk(old, new, "", diffs, args.rtol)
     for d in diffs[:200]:

@@ -8,7 +8,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from fitdf.report.build import BLOCKS, ReportSettings, _job_lsq
+from fitdf.report.jobs import job_lsq
+from fitdf.report.settings import BLOCKS, ReportSettings
 
 
 def report_lsq(block_key: str, law: str, seed: int, settings: ReportSettings):
@@ -17,4 +18,4 @@ def report_lsq(block_key: str, law: str, seed: int, settings: ReportSettings):
     blocks = {b.key: b for b in BLOCKS}
     if block_key not in blocks:
         raise SystemExit(f"unknown block {block_key!r}; choose from {', '.join(blocks)}")
-    return _job_lsq(blocks[block_key].data, law, seed, settings.n_starts, settings.chain)
+    return job_lsq(blocks[block_key].data, law, seed, settings.n_starts, settings.chain)

@@ -25,7 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from _report_fit import report_lsq
 
-from fitdf.report.build import ReportSettings, _job_mcmc
+from fitdf.report.jobs import job_mcmc
+from fitdf.report.settings import ReportSettings
 
 
 def run(block_key: str, law: str, seed: int, settings: ReportSettings, limits=None) -> None:
@@ -33,7 +34,7 @@ def run(block_key: str, law: str, seed: int, settings: ReportSettings, limits=No
     lsq = report_lsq(block_key, law, seed, settings)
     t1 = time.perf_counter()
     limits = limits or settings.step_limits(law)
-    post = _job_mcmc(lsq, seed, settings.n_steps, settings.n_walkers, *limits)
+    post = job_mcmc(lsq, seed, settings.n_steps, settings.n_walkers, *limits)
     t2 = time.perf_counter()
     d = post.diagnostics
     rhat, ess = max(d["rhat"].values()), min(d["ess_bulk"].values())

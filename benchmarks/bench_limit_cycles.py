@@ -41,11 +41,11 @@ from bench_voltage import median_time, timed_repeats  # (benchmarks/ is the scri
 from scipy.optimize import brentq, least_squares, minimize_scalar
 
 from fitdf.inference.api import fit
+from fitdf.limit_cycle_tables import THESIS_PLANT
 from fitdf.loop import critical as critical_module
 from fitdf.loop import harmonic
 from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
 from fitdf.loop.plant import as_loop_plant
-from fitdf.thesis import THESIS_PLANT
 
 GAINS = np.geomspace(20.0, 300.0, 12)
 

@@ -37,7 +37,7 @@ from _report_fit import report_lsq
 
 import fitdf.chains.voltage as voltage
 from fitdf.inference.mcmc import LogPosterior
-from fitdf.report.build import ReportSettings
+from fitdf.report.settings import ReportSettings
 
 PARTS = ("branch", "kernel", "secant", "place")
 

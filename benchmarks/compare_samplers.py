@@ -94,6 +94,7 @@ from fitdf.inference.nested import (  # noqa: E402
     run_nautilus,
 )
 from fitdf.inference.problem import FitProblem  # noqa: E402
+from fitdf.report.upgrade import read_results  # noqa: E402
 
 SAMPLERS = ("nautilus", "dynesty", "ultranest")
 DISTRIBUTIONS = {"nautilus": "nautilus-sampler", "dynesty": "dynesty", "ultranest": "ultranest"}
@@ -283,12 +284,12 @@ EMCEE_EPYC = {
 def emcee_rows(results_path: Path) -> dict:
     """``(block, law)`` -> emcee's chain in a report: evaluations, smallest bulk ESS, job s
     (:data:`EMCEE_EPYC` for what a report sampled by nested sampling lacks)."""
-    results = json.loads(results_path.read_text()) if results_path.exists() else None
+    results = read_results(results_path) if results_path.exists() else None
     out = dict(EMCEE_EPYC)
     if results is None:
         return out
     for r in chain_rows(results):
-        g = results["blocks"][r["block"]]["fits_mcmc"][r["law"]]["diagnostics"]
+        g = results["blocks"][r["block"]]["fits_posterior"][r["law"]]["diagnostics"]
         out[(r["block"], r["law"])] = {
             "evals": r["pilot"] + r["production"],
             "ess": min(g["ess_bulk"].values()),

@@ -31,9 +31,10 @@ optimistic there too. No thresholds: numbers only.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from fitdf.report.upgrade import read_results
 
 ROOT = Path(__file__).resolve().parents[1]
 AIM_S = 600.0
@@ -52,7 +53,7 @@ def chain_rows(results: dict) -> list[dict]:
     pilot_steps = min(300, results["settings"]["n_steps"])
     rows = []
     for key, block in results["blocks"].items():
-        for law, fit in block["fits_mcmc"].items():
+        for law, fit in block["fits_posterior"].items():
             if fit.get("method", "mcmc") != "mcmc":
                 continue  # (a nested-sampling posterior: no chain)
             g = fit["diagnostics"]
@@ -90,7 +91,7 @@ def best_sampled(results: dict, top: int) -> set:
     """``(block, law)`` of the best ``top`` sampled laws of each block (least-squares order)."""
     chosen = set()
     for key, block in results["blocks"].items():
-        sampled = [law for law in block["order_lsq"] if law in block["fits_mcmc"]]
+        sampled = [law for law in block["order_lsq"] if law in block["fits_posterior"]]
         chosen |= {(key, law) for law in sampled[:top]}
     return chosen
 
@@ -100,7 +101,7 @@ def main(argv=None) -> int:
     parser.add_argument("results", nargs="?", default=str(ROOT / "reports" / "results.json"))
     parser.add_argument("--cores", type=int, default=2)
     ns = parser.parse_args(argv)
-    results = json.loads(Path(ns.results).read_text())
+    results = read_results(ns.results)
     rows = chain_rows(results)
     if not rows:
         print(

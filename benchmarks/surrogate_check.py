@@ -38,7 +38,8 @@ from _report_fit import report_lsq
 
 from fitdf.inference import problem as problem_module
 from fitdf.inference.mcmc import LogPosterior
-from fitdf.report.build import ReportSettings, _job_mcmc
+from fitdf.report.jobs import job_mcmc
+from fitdf.report.settings import ReportSettings
 
 
 def record_chain(block_key: str, law: str, seed: int, max_steps: int):
@@ -56,7 +57,7 @@ def record_chain(block_key: str, law: str, seed: int, max_steps: int):
 
     problem_module.FitProblem.predict = recording
     try:
-        _job_mcmc(lsq, seed, settings.n_steps, settings.n_walkers, max_steps, max_steps)
+        job_mcmc(lsq, seed, settings.n_steps, settings.n_walkers, max_steps, max_steps)
     finally:
         problem_module.FitProblem.predict = predict
     return lsq, np.concatenate(seen_x), np.concatenate(seen_m)

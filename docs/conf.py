@@ -26,6 +26,7 @@ extensions = [
     "sphinx.ext.mathjax",
     "numpydoc",
     "fitdf_cli",  # docs/_ext/fitdf_cli.py: the CLI reference, rendered from the parser
+    "fitdf_values",  # docs/_ext/fitdf_values.py: :value: writes a constant of the code
 ]
 
 templates_path = ["_templates"]

@@ -15,6 +15,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from fitdf._text import TEXT_WIDTH, cut, table_lines, wrap
+
 __all__ = [
     "ParamSpec",
     "Parametrized",
@@ -26,6 +28,7 @@ __all__ = [
     "calibration_gain",
     "current_scaled",
     "DIMENSIONLESS",
+    "parameter_lines",
 ]
 
 #: How a dimensionless parameter's unit is printed (its ``unit`` is ``""`` or ``"1"``).
@@ -192,6 +195,30 @@ def current_scaled(specs: Sequence[ParamSpec], values: dict, scale: float) -> di
     return out
 
 
+def parameter_lines(params, indent: str = "  ", width: int = TEXT_WIDTH, meanings=True) -> list:
+    """Lines of declared parameters: name, unit, bounds, scale and thesis equation, each
+    followed (``meanings``) by an indented line of what it means, wrapped at ``width``."""
+    rows = [
+        [
+            p.name,
+            p.unit_label,
+            f"{p.bounds[0]:g} .. {p.bounds[1]:g}",
+            "log" if p.log else "linear",
+            p.equation or "-",
+        ]
+        for p in params
+    ]
+    headers = ["parameter", "unit", "bounds", "scale", "thesis / source"]
+    table = table_lines(headers, rows, left=headers)
+    lines = [indent + table[0]]
+    for p, line in zip(params, table[1:]):
+        lines.append(cut(indent + line, width))
+        if meanings:
+            text = p.description or "(no description)"
+            lines += wrap(text, width, indent + "    ")
+    return lines
+
+
 class Parametrized:
     """What hysteresis laws and measurement chains share: declared parameters, described.
 
@@ -235,3 +262,10 @@ class Parametrized:
     @classmethod
     def _extra_description(cls) -> dict:
         return {}
+
+    @classmethod
+    def parameters_text(cls, indent: str = "  ", width: int = TEXT_WIDTH, meanings=True) -> str:
+        """The declared parameters as text (:func:`parameter_lines`; "no parameters" if none)."""
+        if not cls.params:
+            return f"{indent}no parameters"
+        return "\n".join(parameter_lines(cls.params, indent, width, meanings))

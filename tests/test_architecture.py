@@ -1,8 +1,8 @@
 """The package's architecture, enforced: layers, no hidden imports, a public API that always works.
 
-The layer order lives in pyproject.toml (``[tool.importlinter]``): cli > report > plots >
-thesis > loop > inference > chains > models > numerical_df | data > params | _json | _arviz |
-executor > errors | jobcache > machine.
+The layer order lives in pyproject.toml (``[tool.importlinter]``): cli > cli_parser > report >
+plots > limit_cycle_tables > loop > inference > chains > models > numerical_df | data > params |
+_json | _arviz | executor > errors | jobcache > machine | _text | stop_signals.
 """
 
 from __future__ import annotations

@@ -15,8 +15,10 @@ from pathlib import Path
 
 import pytest
 
-from fitdf.report import claims, criteria, findings, physics_claims
+from fitdf.report import audit_claims, claims, criteria, findings, physics_claims
 from fitdf.report.claims import claim, literal_numbers, paragraph, recompute, resolve, rule, say
+from fitdf.report.render import render_markdown
+from fitdf.report.upgrade import read_results, upgrade
 from fitdf.report.words import every_claim, report_words
 
 RESULTS = {
@@ -165,9 +167,9 @@ def _results() -> dict:
                 "tables": [key],
                 "source_impedance_ohm": [0.0],
                 "ranking_lsq": lsq,
-                "ranking_mcmc": post,
+                "ranking_posterior": post,
                 "fits_lsq": {r["model"]: _fit() for r in lsq},
-                "fits_mcmc": {r["model"]: _nested() for r in post},
+                "fits_posterior": {r["model"]: _nested() for r in post},
             }
             for key, (lsq, post) in blocks.items()
         },
@@ -196,7 +198,7 @@ def test_ties_are_named_by_each_criterion_on_its_own_numbers():
     assert "`a` from `b` on B.1 (elpd apart by 1.0 +- 3.0)" in loo
     assert {"looic", "elpd_diff", "elpd_dse", "log_evidence", "aicc"} <= set(ties["fields"])
     # the bound: an elpd difference of more than twice its error is no tie
-    res["blocks"]["B.2"]["ranking_mcmc"][0]["elpd_loo_dse"] = 1.0
+    res["blocks"]["B.2"]["ranking_posterior"][0]["elpd_loo_dse"] = 1.0
     assert "on B.2" not in claim("conclusion.ties", res)["text"]
 
 
@@ -214,7 +216,7 @@ def test_no_tie_is_claimed_by_a_criterion_that_has_one():
     )
     assert loo.startswith("(an elpd difference below 2 standard errors) it cannot tell")
     for block in res["blocks"].values():  # and with LOO far apart: no LOO tie either
-        block["ranking_mcmc"][0]["elpd_loo_dse"] = 0.5
+        block["ranking_posterior"][0]["elpd_loo_dse"] = 0.5
     assert claim("conclusion.ties", res)["text"].endswith(
         "by LOO-IC no other law's elpd comes within 2 standard errors of the best's."
     )
@@ -229,7 +231,7 @@ def test_the_posteriors_agree_only_when_their_criterion_picks_the_best_law():
     )
     assert "LOO-IC agrees." in claim("block.posteriors", res, block="B.1")["text"]
     # the evidence turned: it prefers b, and says by how much
-    res["blocks"]["B.2"]["ranking_mcmc"][1]["log_evidence"] = 90.0
+    res["blocks"]["B.2"]["ranking_posterior"][1]["log_evidence"] = 90.0
     said = claim("block.posteriors", res, block="B.2")["text"]
     assert said.startswith("Of the 2 laws sampled, the evidence prefers Law B `b` (ln B 6.6 over")
     # the best law by AICc not sampled
@@ -252,7 +254,7 @@ def test_the_summary_row_takes_each_criterion_by_its_own_numbers():
     row = claim("summary.block", res, block="B.2")["values"]
     assert (row["aicc_best"], row["evidence_best"], row["loo_best"]) == ("a", "a", "b")
     assert row["second"] == "b" and row["d_aicc"] == 36.0 and row["rms"] == 0.048
-    res["blocks"]["B.2"]["ranking_mcmc"] = []
+    res["blocks"]["B.2"]["ranking_posterior"] = []
     row = claim("summary.block", res, block="B.2")["values"]
     assert row["evidence_best"] is None and row["loo_best"] is None
 
@@ -314,13 +316,12 @@ def _made_again(results: dict, tree) -> int:
 
 
 def _plain_statements(results: dict) -> list[str]:
-    """The Findings statements still written without claims (the audit's, the limit cycles',
-    Supermalloy's)."""
-    out = findings._audit_findings(results.get("audit", {}))
-    out.append(
-        physics_claims._supermalloy_finding((results.get("physics") or {}).get("supermalloy"))
-    )
-    out.append(findings._limit_finding(results.get("limit_cycles", {})))
+    """The Findings statements still written without claims (the limit cycles', made and
+    tested by fitdf.limit_cycle_tables; Supermalloy's, by fitdf.report.supermalloy)."""
+    out = [
+        physics_claims._supermalloy_finding((results.get("physics") or {}).get("supermalloy")),
+        findings._limit_finding(results.get("limit_cycles", {})),
+    ]
     return [s for s in out if s]
 
 
@@ -346,11 +347,49 @@ def test_every_sentence_of_a_report_is_made_again_from_its_results(tiny_report):
         assert claims.text(stored["physics"][part]) in md
 
 
+#: Version 1's names of the posteriors' keys (written out here, not taken from the upgrade).
+_V1 = {"fits_posterior": "fits_mcmc", "ranking_posterior": "ranking_mcmc",
+       "order_posterior": "order_mcmc"}  # fmt: skip
+
+
+def _as_version_1(results: dict) -> dict:
+    """``results`` as fitdf wrote it before the posteriors were renamed: the blocks' keys,
+    the settings' and the timing's, and the paths in the stored claims."""
+    old = json.loads(json.dumps(results))
+    del old["schema_version"]
+    for block in old["blocks"].values():
+        for new, was in _V1.items():
+            block[was] = block.pop(new)
+    s = old["settings"]
+    s["mcmc_top"], s["mcmc_skip"] = s.pop("posterior_top"), s.pop("posterior_skip")
+    s["methods"] = ["mcmc" if m == "posterior" else m for m in s["methods"]]
+    old["timing"]["mcmc_cv_cross_limit_s"] = old["timing"].pop("second_phase_s")
+    text = json.dumps(old["claims"])
+    for new, was in _V1.items():
+        text = text.replace(f"/{new}/", f"/{was}/")
+    old["claims"] = json.loads(text)
+    return old
+
+
+def test_a_report_of_the_earlier_schema_says_what_its_numbers_say(tiny_report):
+    """The tiny report written with version 1's keys and claim paths: read through the
+    upgrade, every stored claim is made again from its fields, the words are this code's,
+    and it renders as the report it was."""
+    results = json.loads((tiny_report / "results.json").read_text())
+    old = _as_version_1(results)
+    assert "fits_mcmc" in old["blocks"]["B.1"] and "/ranking_mcmc/" in json.dumps(old["claims"])
+    upgraded = upgrade(old)
+    assert upgraded == results
+    assert _made_again(upgraded, upgraded["claims"]) >= 15
+    assert report_words(old) == {"claims": results["claims"], "findings": results["findings"]}
+    assert render_markdown(old) == (tiny_report / "README.md").read_text()
+
+
 def test_the_claims_of_a_record_of_many_laws_are_made_again():
-    """The rules on the committed report's numbers (eight laws, seven blocks, posteriors):
-    every claim this code makes of them is made again from its fields, each criterion named
+    """The rules on the committed report's numbers (eight laws, seven blocks, posteriors; read
+    through the schema upgrade): every claim this code makes of them is made again from its fields, each criterion named
     read from its own."""
-    results = json.loads(COMMITTED.read_text())
+    results = read_results(COMMITTED)
     words = report_words(results)
     assert _made_again(results, words["claims"]) >= 40
     kinds = {c["kind"] for c in every_claim(words["claims"])}
@@ -359,9 +398,10 @@ def test_the_claims_of_a_record_of_many_laws_are_made_again():
 
 def test_the_committed_report_says_what_its_numbers_say():
     """The committed results.json holds its claims, each made again from its fields, and
-    they are what this code says of its numbers (fails until the report is regenerated
-    with this code: ``fitdf report --full``)."""
-    results = json.loads(COMMITTED.read_text())
+    they are what this code says of its numbers (read through the schema upgrade,
+    fitdf.report.upgrade; fails until the report is regenerated with this code:
+    ``fitdf report --full --out reports``)."""
+    results = read_results(COMMITTED)
     assert "claims" in results, "reports/results.json holds no claims: regenerate it"
     assert _made_again(results, results["claims"]) >= 40
     assert report_words(results) == {"claims": results["claims"], "findings": results["findings"]}
@@ -376,8 +416,8 @@ def test_a_range_prints_once_when_its_ends_print_alike():
 
 def test_the_posteriors_statement_counts_the_widened_boxes_that_missed():
     res = _results()
-    fits = res["blocks"]["B.1"]["fits_mcmc"]
-    for fit in list(fits.values()) + list(res["blocks"]["B.2"]["fits_mcmc"].values()):
+    fits = res["blocks"]["B.1"]["fits_posterior"]
+    for fit in list(fits.values()) + list(res["blocks"]["B.2"]["fits_posterior"].values()):
         fit["diagnostics"].update(n_likelihood_evaluations=20000, log_evidence_error=0.04)
     boxes = [{"factor": 0.5}, {"factor": 2.0, "consistent": True}]
     fits["a"]["diagnostics"]["prior_sensitivity"] = {"boxes": boxes}
@@ -409,3 +449,52 @@ def test_the_sentences_best_law_is_the_selection_rules(tiny_report):
         assert criteria.best_law(models, aicc) == sel["best"]["model"], key
         tied = {m for m, _ in criteria.aicc_ties(models, aicc)}
         assert tied == {t.split("/")[0] for t in sel["ties"]}, key
+
+
+def _factor_results(rows):
+    keys = ("table", "frequency_hz", "factor_printed", "factor_data", "follows_printed")
+    blocks = [
+        dict(zip(keys, r), rows_printed_ok=2, rows_with_output=5, source_impedance_ohm=0.0)
+        for r in rows
+    ]
+    tables = [{"table": "B.9", "flagged": 3, "excluded_by_default": 1, "rows": 10}]
+    return {"audit": {"tables": tables, "block_factors": blocks, "findings": []}}
+
+
+def test_the_audit_statements_are_the_audits_own_sentences(tiny_report):
+    """The audit's Findings claims (fitdf.report.audit_claims) say what the audit's own
+    sentences (fitdf.data.audit, computed from the tables by another path) say of the tables
+    whose rows do not follow their footnote factor, and count the flagged rows."""
+    results = json.loads((tiny_report / "results.json").read_text())
+    audit = results["audit"]
+    said = [claims.text(p) for p in audit_claims.audit_findings(results)]
+    n_flag = sum(t["flagged"] for t in audit["tables"])
+    assert said[0].startswith(f"The audit of the printed tables flags {n_flag} of ")
+    theirs = [f for f in audit["findings"] if "footnote factor" in f and "followed by all" not in f]
+    assert said[1:] == theirs and len(theirs) >= 2  # B.1 and B.2 print a factor they do not follow
+
+
+def test_the_audit_factor_statement_at_its_boundaries():
+    """All blocks following the footnote: nothing to say; one block off: '1 of 2'; every block
+    off: 'all'; no footnote printed: the factor the data follow."""
+    follow = _factor_results([("B.9", 3.0, 2.0, 2.0, True), ("B.9", 6.0, 2.0, 2.0, None)])
+    assert audit_claims.audit_findings(follow)[1:] == []
+    one = _factor_results([("B.9", 3.0, 2.0, 2.2, False), ("B.9", 6.0, 2.0, 2.0, True)])
+    (c,) = audit_claims.audit_findings(one)[1]
+    assert c["text"] == (
+        "B.9: the footnote factor 2 fits 2 of 5 rows in 1 of 2 frequency blocks (3 c/s); the "
+        "data follow 2.100 (blocks 2.000-2.200), i.e. 1.050 x the footnote."
+    )
+    both = _factor_results([("B.9", 3.0, 2.0, 2.2, False), ("B.9", 6.0, 2.0, 2.2, False)])
+    (c,) = audit_claims.audit_findings(both)[1]
+    assert "4 of 10 rows in all frequency blocks (3, 6 c/s)" in c["text"]
+    assert "(blocks 2.200)" in c["text"]  # a spread whose ends print alike prints once
+    none = _factor_results([("B.9", 3.0, None, 1.5, None)])
+    (c,) = audit_claims.audit_findings(none)[1]
+    assert c["text"] == (
+        "B.9: no footnote factor; the data follow DF = 1.500 x output / input (blocks 1.500)."
+    )
+    (c,) = audit_claims.audit_findings(none)[0]
+    assert c["text"].startswith(
+        "The audit of the printed tables flags 3 of 10 rows and excludes 1 "
+    )

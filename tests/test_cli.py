@@ -236,7 +236,7 @@ def test_the_default_ranking_stays_within_100_columns():
     the table stays within 100 columns, a cut list of ties says so."""
     import pandas as pd
 
-    from fitdf.cli import _ranking_text
+    from fitdf.inference.presentation import ranking_text
 
     models = ["proportional_width_fig42", "jiles_atherton", "preisach", "cubic_hc"]
     rows = []
@@ -262,7 +262,7 @@ def test_the_default_ranking_stays_within_100_columns():
     table["indistinguishable_from"] = [
         ", ".join(n for n in every[::2] if n != f"{r['model']}/{r['chain']}") for r in rows
     ]
-    text = _ranking_text(table, "looic")
+    text = ranking_text(table, "looic")
     assert_fits_in_100_columns(text)
     header = text.splitlines()[0].split()
     assert header == [
@@ -279,7 +279,7 @@ def test_the_default_ranking_stays_within_100_columns():
     ]
     assert "..." in text
     assert "least squares: AICc within 2; MCMC: elpd_loo" in " ".join(text.split())
-    wide = _ranking_text(table, "looic", wide=True)
+    wide = ranking_text(table, "looic", wide=True)
     assert "indistinguishable_from" in wide and max(map(len, wide.splitlines())) > WIDTH
 
 
@@ -329,7 +329,7 @@ def test_fit_help_points_to_the_csv_format():
     [
         (("fit", "nosuchcore"), ["nosuchcore"]),
         (("fit", "missing_dir/file.csv"), ["file.csv"]),
-        (("fit", "B.3", "--models", "bogus"), ["unknown model", "bogus"]),
+        (("fit", "B.3", "--models", "bogus"), ["--models", "unknown law", "bogus"]),
         (("fit", "B.3", "--chain", "bogus"), ["bogus"]),
         (("fit", "B.3", "--method", "magic"), ["magic"]),
         (("fit", "B.3", "--steps", "10"), ["--steps"]),
@@ -460,12 +460,20 @@ FAST_FIT = (
 def test_fit_batch_ranks_each_file_then_summarises(tmp_path):
     a, b = _write_cores(tmp_path / "cores")
     (tmp_path / "cores" / "notes.txt").write_text("not a CSV: ignored\n")
-    p = run("fit", str(tmp_path / "cores"), *FAST_FIT, "--quiet")
+    p = run("fit", str(tmp_path / "cores"), *FAST_FIT, "--quiet", "--wide")
     assert p.returncode == 0, p.stderr
     assert p.stdout.count("Ranking on") == 2
     summary = p.stdout.split("Summary (2 datasets")[1].splitlines()[1:]
     assert summary[0].split()[:3] == ["data", "best_model", "chain"]
     assert [line.split()[0] for line in summary[1:3]] == [str(a), str(b)]  # sorted, full path
+    narrow = run("fit", str(tmp_path / "cores"), *FAST_FIT, "--quiet")  # (from the cache)
+    assert_fits_in_100_columns(narrow.stdout)
+    cut = narrow.stdout.split("Summary (2 datasets")[1].splitlines()[2:4]
+    paths = [line.split()[0] for line in cut]
+    assert all(
+        p == str(f) or (p.startswith("...") and str(f).endswith(p[3:]))
+        for p, f in zip(paths, (a, b))
+    )
     assert all(line.split()[1] == "constant_width" for line in summary[1:3])
     j = run("fit", str(b), str(a), *FAST_FIT, "--json")
     assert j.returncode == 0, j.stderr
@@ -550,6 +558,7 @@ def test_limit_cycle_warns_of_an_unstable_plant(tmp_path):
     p = run(*args, *fast)
     assert p.returncode == 0, p.stderr
     assert "Warning: the plant is unstable in open loop" in p.stdout
-    assert "does not mean the loop is stable" in p.stdout
+    assert "does not mean the loop is stable" in " ".join(p.stdout.split())  # (wrapped)
+    assert_fits_in_100_columns(p.stdout)
     j = json.loads(run_here(*args, *fast, "--json").stdout)  # (in this process)
     assert len(j["warnings"]) == 1 and "unstable" in j["warnings"][0]

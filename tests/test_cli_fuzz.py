@@ -217,6 +217,7 @@ REPORT = {  # (no --json: the report prints none, results.json is its machine-re
     "--scheduler": junk,
     "--cache": junk,
     "--no-cache": None,
+    "--replace": None,
 }
 
 #: FITDF_FUZZ_EXAMPLES=2000 for a longer search than the default suite's.

@@ -26,6 +26,7 @@ from fitdf.inference.nested import (
 )
 from fitdf.inference.problem import FitProblem
 from fitdf.models import model_names
+from fitdf.report.upgrade import read_results
 
 COMMITTED = Path(__file__).resolve().parents[1] / "reports" / "results.json"
 
@@ -305,13 +306,11 @@ def test_the_committed_report_holds_no_doubled_box_from_before_the_stratified_es
     """Every prior-sensitivity record of the committed report passes
     :func:`~fitdf.inference.evidence.sensitivity_violations` (fails until the report is
     regenerated: its doubled boxes were sampled before the stratified estimate)."""
-    import json
-
-    results = json.loads(COMMITTED.read_text())
+    results = read_results(COMMITTED)
     wrong = {
         (key, law): evidence.sensitivity_violations(sens)
         for key, block in results["blocks"].items()
-        for law, fit in block["fits_mcmc"].items()
+        for law, fit in block["fits_posterior"].items()
         if (sens := fit["diagnostics"].get("prior_sensitivity"))
     }
     assert {k: v for k, v in wrong.items() if v} == {}

@@ -152,7 +152,7 @@ def test_source_impedance_selection_and_error():
 
 
 def test_bad_inputs_raise_clear_errors(tmp_path):
-    with pytest.raises(ModelError, match="unknown model 'nope'"):
+    with pytest.raises(ModelError, match="unknown law 'nope'"):
         fitdf.fit("B.3", "nope")
     with pytest.raises(ModelError, match="unknown"):
         fitdf.fit("B.3", "rayleigh", chain="nope")

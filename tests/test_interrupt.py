@@ -18,7 +18,9 @@ from pathlib import Path
 
 import pytest
 
-from fitdf.report.build import ReportSettings, _remove_stale, generate_report
+from fitdf.report.build import generate_report
+from fitdf.report.output import remove_stale
+from fitdf.report.settings import ReportSettings
 
 psutil = pytest.importorskip("psutil")
 
@@ -201,7 +203,7 @@ def test_only_stale_temporary_folders_are_removed(tmp_path, monkeypatch):
     gone = [tmp_path / f".rep.tmp-{dead}-a", tmp_path / f".rep.tmp-{dead}-b"]
     for p in keep + gone:
         (p / "figures").mkdir(parents=True)
-    assert sorted(_remove_stale(out)) == sorted(gone)
+    assert sorted(remove_stale(out)) == sorted(gone)
     assert all(p.exists() for p in keep) and not any(p.exists() for p in gone)
 
     # a run does it before it starts (and removes its own folder when it fails)
@@ -227,7 +229,7 @@ def _no_collect(*args):
 #: callback raises the stop exception, ctypes drops it, and then the command would run on.
 _SWALLOWED = """
 import ctypes, signal, sys, time
-import fitdf.cli as cli
+import fitdf.stop_signals as stop
 
 signal.signal(signal.SIGINT, signal.default_int_handler)
 kind = sys.argv[1]
@@ -237,13 +239,13 @@ def callback():
     if kind == "int":
         raise KeyboardInterrupt
     if kind == "term":
-        cli._raise_terminated(signal.SIGTERM, None)  # as the SIGTERM handler does
+        stop.raise_terminated(signal.SIGTERM, None)  # as the SIGTERM handler does
     raise ValueError("not a stop")
 
 c_callback = ctypes.CFUNCTYPE(None)(callback)
 sys.unraisablehook = mine = lambda u: dropped.append(type(u.exc_value).__name__)
 try:
-    with cli.stop_signals():
+    with stop.stop_signals():
         c_callback()
         print("callback returned", flush=True)
         deadline = time.monotonic() + 3  # (the signal is given again 0.1 s after)
@@ -252,7 +254,7 @@ try:
     print("ran on", dropped, flush=True)
 except KeyboardInterrupt:
     print("KeyboardInterrupt", dropped, flush=True)
-except cli.Terminated:
+except stop.Terminated:
     print("Terminated", dropped, signal.getsignal(signal.SIGTERM) is signal.SIG_DFL, flush=True)
 print("hook restored", sys.unraisablehook is mine)
 """
@@ -270,7 +272,7 @@ print("hook restored", sys.unraisablehook is mine)
 def test_a_stop_dropped_in_a_c_callback_is_raised_again(kind, expected):
     """Seen once in the suite on AMD EPYC: Ctrl-C 4 s into ``fitdf fit`` reached it while
     numba compiled a kernel, ctypes printed "Exception ignored on calling ctypes callback
-    function" and the fit ran on past the test's 60 s. ``cli.stop_signals`` gives the signal
+    function" and the fit ran on past the test's 60 s. ``fitdf.stop_signals.stop_signals`` gives the signal
     again; anything else a callback drops still goes to the hook there before."""
     proc = subprocess.run(
         [sys.executable, "-c", _SWALLOWED, kind],

@@ -21,6 +21,7 @@ import pytest
 from jsonschema import Draft202012Validator
 
 import fitdf.report.sections as sections
+from fitdf.report.upgrade import read_results
 
 REPO = Path(__file__).resolve().parents[1]
 SCHEMAS = REPO / "schemas"
@@ -336,7 +337,7 @@ def switched_off(report_results) -> dict:
 def test_results_json_matches_schema(report_results, switched_off):
     assert errors("results.schema.json", report_results) == []
     block = report_results["blocks"]["B.1"]
-    assert block["fits_mcmc"] and block["cv"]  # the MCMC and CV parts were exercised
+    assert block["fits_posterior"] and block["cv"]  # the MCMC and CV parts were exercised
     assert report_results["limit_cycles"]["rows"]  # and the limit-cycle comparison
     assert errors("results.schema.json", switched_off) == []
     assert switched_off["limit_cycles"]["available"] is False
@@ -349,7 +350,7 @@ def test_results_schema_is_not_vacuous(report_results, switched_off):
         (r, ("blocks", "B.1", "ranking_lsq", 0, "aicc")),
         (r, ("blocks", "B.1", "order_lsq")),
         (r, ("blocks", "B.1", "fits_lsq", model, "parameters")),
-        (r, ("blocks", "B.1", "fits_mcmc", model, "diagnostics")),
+        (r, ("blocks", "B.1", "fits_posterior", model, "diagnostics")),
         (switched_off, ("limit_cycles", "reason")),
         (r, ("settings", "models")),
         (r, ("findings",)),
@@ -386,7 +387,7 @@ def test_results_schema_is_not_vacuous(report_results, switched_off):
 def test_committed_results_json_matches_schema_if_current(report_results):
     if not COMMITTED.exists():
         pytest.skip("no committed reports/results.json")
-    committed = json.loads(COMMITTED.read_text(encoding="utf-8"))
+    committed = read_results(COMMITTED)
     if set(committed) != set(report_results):
         pytest.skip(
             "reports/results.json predates the current structure "

@@ -12,9 +12,15 @@ import pytest
 from scipy.optimize import brentq
 from synthetic import synthetic_frame
 
-from fitdf.cli import format_limit_cycle_table, main
+from fitdf.cli import main
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit
+from fitdf.limit_cycle_tables import (
+    THESIS_PLANT,
+    estimate_thesis_scales,
+    limit_cycle_statements,
+    thesis_limit_cycle_comparison,
+)
 from fitdf.loop import harmonic
 from fitdf.loop.fitted import fitted_limit_cycles
 from fitdf.loop.harmonic import (
@@ -26,13 +32,8 @@ from fitdf.loop.harmonic import (
 )
 from fitdf.loop.nonlinearity import _evaluate_N, as_describing_function
 from fitdf.loop.plant import as_loop_plant
+from fitdf.loop.presentation import limit_cycle_text
 from fitdf.plots.limit_cycles import plot_nyquist, plot_thesis_comparison
-from fitdf.thesis import (
-    THESIS_PLANT,
-    estimate_thesis_scales,
-    limit_cycle_statements,
-    thesis_limit_cycle_comparison,
-)
 
 PLANT = "K/(s(s+1)(s+2))"  # -180 deg at w = sqrt(2), |G(j sqrt 2)| = K / 6
 
@@ -379,7 +380,7 @@ def test_fitted_core_in_the_thesis_loop(b1_fit):
         assert abs(1 + c.G * c.N) < 2e-6  # ROOT_TOL: the floor of the exact chain's DF
         assert c.G.real < 0 < c.G.imag  # second quadrant
         assert np.angle(c.N) > 0  # the core's voltage transfer leads
-    text = format_limit_cycle_table(
+    text = limit_cycle_text(
         {
             "plant": THESIS_PLANT,
             "model": res.model,
@@ -395,7 +396,7 @@ def test_fitted_core_in_the_thesis_loop(b1_fit):
     for column in ("gain:", "amplitude:", "omega, f:", "stable:", "loeb:"):
         assert column in legend
     assert "above 0 stable, below 0 unstable" in legend
-    assert max(map(len, text.splitlines()[:-1])) <= 100
+    assert max(map(len, text.splitlines())) <= 100
 
 
 @pytest.mark.slow  # 12 s; the fitted core cycles of the other tests here run by default
@@ -683,7 +684,7 @@ def test_thesis_comparison_uses_the_fits_it_is_given(monkeypatch):
     """The report hands its own fits in: the comparison must not fit again and must take
     the lowest-AICc candidate of each table (the slow test below checks that the answer
     is the one fitting afresh gives)."""
-    import fitdf.thesis.comparison as thesis
+    import fitdf.limit_cycle_tables.comparison as thesis
 
     candidates = {t: [fit(t, "rayleigh", seed=0, n_starts=1)] for t in ["B.1", "B.3", "B.2", "B.5"]}
     candidates["B.1"].append(fit("B.1", "constant_width", seed=0, n_starts=1))
@@ -823,15 +824,17 @@ def _relay_table_record(plant):
 
 def test_limit_cycle_table_prints_the_warnings():
     record = _relay_table_record("K/(s-1)")
-    text = format_limit_cycle_table(record)
+    text = limit_cycle_text(record)
     assert f"{10:>10.4g} {'none':>12s}" in text  # no cycle at K = 10 ...
-    assert text.splitlines()[-1].startswith("Warning: the plant is unstable in open loop")
+    last = text.split("\nWarning: ")[-1]  # (the last paragraph: a warning, wrapped)
+    assert last.startswith("the plant is unstable in open loop") and "gain" not in last
+    assert max(map(len, text.splitlines())) <= 100
 
 
 def test_the_table_does_not_promise_decay_for_an_unstable_plant():
     record = _relay_table_record("K/((1+s)(1+0.25s))")
     assert record["critical_gain"] is not None
-    assert "Oscillations die out below gain" in format_limit_cycle_table(record)
+    assert "Oscillations die out below gain" in limit_cycle_text(record)
     record["warnings"] = ["the plant is unstable in open loop (pole at s = 1): ..."]
-    text = format_limit_cycle_table(record)
+    text = limit_cycle_text(record)
     assert "die out" not in text and "No periodic solution below gain" in text

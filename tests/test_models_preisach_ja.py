@@ -12,15 +12,14 @@ from scipy.stats import multivariate_normal
 
 from fitdf.models._bvn import bvn
 from fitdf.models._ja_branch import _SMALL, _eval_row, _pieces, _work, grid, response_tables
+from fitdf.models._ja_closed import _THIN, _steady_closed
 from fitdf.models._ja_integrate import (
     _COARSE_NMIN,
     _COARSE_TOL,
     _NMIN,
-    _THIN,
     _TOL,
     _half_cycle,
     _steady,
-    _steady_closed,
 )
 from fitdf.models._preisach_everett import _bvn, _preisach_branch_reference
 from fitdf.models.jiles_atherton import (

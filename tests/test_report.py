@@ -18,11 +18,13 @@ import fitdf.report.block_outline as block_outline
 import fitdf.report.outline as outline
 import fitdf.report.render as render
 import fitdf.report.sections as sections
+from fitdf.limit_cycle_tables import limit_cycle_statements
 from fitdf.machine import machine_record, same_machine
 from fitdf.plots.summary import CAPTION, constant_rows, plot_summary, residual_grid
 from fitdf.report import costs
-from fitdf.report.build import BLOCKS, ReportSettings, generate_report
-from fitdf.thesis import limit_cycle_statements
+from fitdf.report.build import generate_report
+from fitdf.report.settings import BLOCKS, ReportSettings
+from fitdf.report.upgrade import SCHEMA_VERSION, read_results
 
 TESTS = Path(__file__).resolve().parent
 REPO = TESTS.parent
@@ -33,7 +35,7 @@ MINI = ReportSettings(
     models=("proportional_width",),
     blocks=("B.1",),
     n_starts=1,
-    mcmc_top=0,
+    posterior_top=0,
     cv_top=0,
     cross=(),
     limit_cycles=False,
@@ -96,6 +98,12 @@ def test_report_records_the_machine_it_ran_on(tiny_report, tiny_results):
 def test_report_writes_every_file(tiny_report, tiny_results):
     for name in ("README.md", "index.html", "results.json"):
         assert (tiny_report / name).stat().st_size > 1000
+    # the cost of each job, as the package's committed_costs.json holds the committed run's
+    written = json.loads((tiny_report / "costs.json").read_text())
+    assert written == costs.cost_record(tiny_results)
+    assert set(written["jobs_s"]) == set(tiny_results["timing"]["jobs_s"])
+    assert written["run"]["cores"] == os.cpu_count() == tiny_results["timing"]["cores"]
+    assert tiny_results["schema_version"] == SCHEMA_VERSION
     figures = {
         p.relative_to(tiny_report).as_posix() for p in (tiny_report / "figures").rglob("*.png")
     }
@@ -233,9 +241,9 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
             "cv_rms_complex",
         ):
             assert isinstance(row[metric], float), (key, metric)
-        assert rec["ranking_mcmc"][0]["looic"] is not None
-        assert rec["ranking_mcmc"][0]["log_evidence"] is not None
-        post = rec["fits_mcmc"]["proportional_width"]
+        assert rec["ranking_posterior"][0]["looic"] is not None
+        assert rec["ranking_posterior"][0]["log_evidence"] is not None
+        post = rec["fits_posterior"]["proportional_width"]
         assert post["method"] == "nested"
         diag = post["diagnostics"]
         assert {
@@ -255,7 +263,7 @@ def test_results_json_holds_rankings_and_settings(tiny_results):
         )
     assert r["blocks"]["permalloy-joint"]["source_impedance_ohm"] == [0.0, 600.0]
     assert r["cross_impedance"][0]["rows"][0]["predict_rms_complex"] > 0
-    lc = r["limit_cycles"]  # the real comparison (fitdf.thesis), on the tiny settings
+    lc = r["limit_cycles"]  # the real comparison (fitdf.limit_cycle_tables), on the tiny settings
     assert lc["available"] and "error" not in lc and lc["figure"]
     assert len(lc["rows"]) == 2 * 38 and {row["table"] for row in lc["rows"]} == {
         "B.1",
@@ -362,7 +370,7 @@ def test_failed_run_leaves_the_old_report_intact(tmp_path, monkeypatch, stub_fig
 
 
 def test_interrupted_swap_restores_the_old_report(tmp_path, monkeypatch):
-    import fitdf.report.build as report
+    import fitdf.report.output as report
 
     out = tmp_path / "reports"
     out.mkdir()
@@ -378,7 +386,7 @@ def test_interrupted_swap_restores_the_old_report(tmp_path, monkeypatch):
 
     monkeypatch.setattr(report.os, "replace", flaky_replace)
     with pytest.raises(OSError):
-        report._swap_in(new, out)
+        report.swap_in(new, out)
     assert (out / "README.md").read_text() == "old report\n"
 
 
@@ -391,7 +399,7 @@ def test_same_seed_same_numbers(tmp_path, stub_figures):
         models=("proportional_width",),
         blocks=("B.1",),
         n_starts=2,
-        mcmc_top=1,
+        posterior_top=1,
         n_steps=20,
         max_steps=20,
         extend_steps=None,
@@ -414,11 +422,12 @@ def test_same_seed_same_numbers(tmp_path, stub_figures):
 
 def test_quick_settings_keep_the_ranking_configuration():
     full, quick = ReportSettings.for_run(), ReportSettings.for_run(quick=True)
-    assert quick.methods == ("lsq",) and quick.mcmc_top == 0
+    assert quick.methods == ("lsq",) and quick.posterior_top == 0
     assert (quick.models, quick.blocks, quick.n_starts) == (full.models, full.blocks, full.n_starts)
-    assert ReportSettings.for_run(methods=("lsq",)).mcmc_top == 0
-    with pytest.raises(Exception, match="methods"):
-        ReportSettings.for_run(methods=("mcmc",))
+    assert ReportSettings.for_run(methods=("lsq",)).posterior_top == 0
+    for methods in (("posterior",), ("lsq", "mcmc")):  # least squares first; no sampler's name
+        with pytest.raises(Exception, match="methods"):
+            ReportSettings.for_run(methods=methods)
 
 
 def test_closed_form_laws_get_longer_chains():
@@ -449,7 +458,7 @@ def test_pool_gives_the_serial_numbers(tmp_path):
 
 def _committed_matching_the_code() -> dict:
     """The committed results.json, or a skip naming why it cannot be compared with this code."""
-    committed = json.loads(COMMITTED.read_text())
+    committed = read_results(COMMITTED)
     settings = ReportSettings.for_run()
     made_with = (committed["settings"].get("chain", "winding"), committed["settings"]["models"])
     if made_with != (settings.chain, settings.model_list()):
@@ -554,10 +563,10 @@ def test_approximate_chain_refit_starts_at_the_exact_optimum():
     from fitdf.inference.api import fit
     from fitdf.inference.lsq import fit_lsq
     from fitdf.inference.problem import FitProblem
-    from fitdf.report.build import _job_approx
+    from fitdf.report.jobs import job_approx
 
     exact = fit("B.1", "constant_width", n_starts=1)
-    approx = _job_approx(exact, 0, "winding")
+    approx = job_approx(exact, 0, "winding")
     assert approx.chain == "winding" and approx.problem.names == exact.problem.names
     assert approx.info["n_starts"] == 2  # the exact optimum and the screen's best point
     p = exact.problem
@@ -574,7 +583,7 @@ def test_approximate_chain_refit_starts_at_the_exact_optimum():
     # --quick: the exact optimum only, which is that polish exactly
     assert ReportSettings.for_run(quick=True).approximate_screen == 0
     assert ReportSettings.for_run().approximate_screen == 1
-    nearest = _job_approx(exact, 0, "winding", 0)
+    nearest = job_approx(exact, 0, "winding", 0)
     assert nearest.info["n_starts"] == 1
     assert nearest.metrics["chi2"] == alone.metrics["chi2"]
 
@@ -582,7 +591,7 @@ def test_approximate_chain_refit_starts_at_the_exact_optimum():
 def test_settings_line_states_the_posteriors_and_cv_that_ran():
     # the committed report's own settings: nested sampling with its live points, evaluation
     # limit and rule, on the core blocks; folds polished from the optimum (cv_starts None)
-    settings = json.loads(COMMITTED.read_text())["settings"]
+    settings = read_results(COMMITTED)["settings"]
     (kind, items), *_ = outline._settings_text(
         {"settings": settings, "timing": {}, "fitdf_version": "x", "seed": 0}
     )
@@ -594,7 +603,7 @@ def test_settings_line_states_the_posteriors_and_cv_that_ran():
         f"{outline._networks(settings.get('nested_networks', 4))} per bound, up to "
         f"{settings['nested_max_evaluations']:,} likelihood evaluations; converged at 400 "
         "effective draws and an evidence error of at most 0.3) for the best "
-        f"{settings['mcmc_top']} least-squares models of "
+        f"{settings['posterior_top']} least-squares models of "
         + (", ".join(settings["posterior_blocks"] or ()) or "each block")
     ) in line
     if settings.get("sensitivity_top"):
@@ -632,7 +641,7 @@ def test_settings_line_states_the_posteriors_and_cv_that_ran():
 
 
 def test_settings_line_names_the_laws_with_more_starts():
-    settings = json.loads(COMMITTED.read_text())["settings"]
+    settings = read_results(COMMITTED)["settings"]
     models = [{"name": "cubic_hc", "start_multiple": 4}, {"name": "rayleigh", "start_multiple": 1}]
     res = {"settings": settings, "timing": {}, "fitdf_version": "x", "seed": 0, "models": models}
     (_, items), *_ = outline._settings_text(res)
@@ -674,7 +683,7 @@ def test_findings_open_with_a_conclusion_from_the_numbers():
     """The committed report re-rendered from its results.json (no refit): "Findings" opens
     with a short conclusion whose every number comes from the record, each criterion it
     names answered by that criterion's numbers (computed here from the rankings)."""
-    res = json.loads(COMMITTED.read_text())
+    res = read_results(COMMITTED)
     md = render.render_markdown(res)
     text, statements = _findings_section(md)
     assert 3 <= len(_sentences(text)) <= 6, _sentences(text)
@@ -694,7 +703,7 @@ def test_findings_open_with_a_conclusion_from_the_numbers():
     # what the data cannot decide: each criterion's ties by its own numbers
     ties = next(s for s in _sentences(text) if s.startswith("By AICc"))
     for rec in blocks:
-        post = rec["ranking_mcmc"]
+        post = rec["ranking_posterior"]
         loo_best = _lowest(post, "looic")
         for r in post:
             d, se = r.get("elpd_loo_diff"), r.get("elpd_loo_dse")
@@ -706,7 +715,9 @@ def test_findings_open_with_a_conclusion_from_the_numbers():
             if r["model"] != ev_best and r.get("log_evidence") is not None:
                 if 2 * (top - r["log_evidence"]) < 2:
                     assert f"`{r['model']}` on" in ties.split("; by LOO-IC")[0]
-    chains = [f["diagnostics"]["converged"] for rec in blocks for f in rec["fits_mcmc"].values()]
+    chains = [
+        f["diagnostics"]["converged"] for rec in blocks for f in rec["fits_posterior"].values()
+    ]
     if all(chains):
         assert f"All {len(chains)} posteriors converged." in text
     else:
@@ -806,7 +817,7 @@ def test_each_run_of_the_command_is_named_with_its_seed():
     settings no option gives."""
     from dataclasses import replace
 
-    from fitdf.report.build import run_record
+    from fitdf.report.settings import run_record
 
     for quick, full, command in (
         (True, False, "fitdf report --quick"),
@@ -836,7 +847,7 @@ def test_a_report_describes_the_methods_it_ran(tiny_report, tiny_results):
 
     md = (tiny_report / "README.md").read_text()
     intro = md.split("\n\n")[1]
-    n_post = sum(len(b["fits_mcmc"]) for b in tiny_results["blocks"].values())
+    n_post = sum(len(b["fits_posterior"]) for b in tiny_results["blocks"].values())
     assert n_post == 2
     assert "by least squares, with the posteriors of 2 of the fits by nested sampling" in intro
     assert "predict across source impedance" in intro and "limit cycles" in intro
@@ -847,7 +858,7 @@ def test_a_report_describes_the_methods_it_ran(tiny_report, tiny_results):
     quick = {
         **tiny_results,
         "run": {"run": "quick", "command": "fitdf report --quick"},
-        "blocks": {k: {**b, "fits_mcmc": {}} for k, b in tiny_results["blocks"].items()},
+        "blocks": {k: {**b, "fits_posterior": {}} for k, b in tiny_results["blocks"].items()},
         "cross_impedance": [],
         "limit_cycles": {"available": False},
     }

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from fitdf.plots import thesis
-from fitdf.plots.thesis import KS_SATURATION_C, THESIS_GRAPHS, save_thesis_graphs
+from fitdf.plots import thesis_graphs
+from fitdf.plots.thesis_graphs import KS_SATURATION_C, THESIS_GRAPHS, save_thesis_graphs
 
 EXPECTED_AXES = {"4.1": 2, "4.2": 2, "4.3": 1, "4.4": 2, "4.5": 3, "4.6": 1, "4.7": 2}
 
@@ -27,7 +27,7 @@ def test_graph_has_axes_and_data(number):
 
 
 def test_graph_4_1_endpoints():
-    (top, _) = thesis.graph_4_1().axes
+    (top, _) = thesis_graphs.graph_4_1().axes
     magnitude = top.get_lines()[0]
     # m = 0: 1 at 0 degrees; m = 1: the loop has no height, N = 0
     assert magnitude.get_ydata()[0] == pytest.approx(1.0, abs=1e-12)
@@ -35,12 +35,12 @@ def test_graph_4_1_endpoints():
 
 
 def test_graph_4_3_loci_start_at_minus_one_over_n_below_saturation():
-    (ax,) = thesis.graph_4_3().axes
+    (ax,) = thesis_graphs.graph_4_3().axes
     marks = [ln for ln in ax.get_lines() if np.size(ln.get_xdata()) == 1]
     first = marks[0]  # m = 0: -1/N = -1/k
     assert first.get_xdata()[0] == pytest.approx(-1.0, abs=1e-12)
     assert first.get_ydata()[0] == pytest.approx(0.0, abs=1e-12)
-    assert len(ax.texts) >= 2 * len(thesis.M_CURVES) - 1  # direction arrows
+    assert len(ax.texts) >= 2 * len(thesis_graphs.M_CURVES) - 1  # direction arrows
 
 
 def test_graph_4_7_saturation_starts_at_a_5():

@@ -1,4 +1,4 @@
-"""The Tables 5.1/5.2 comparison's record and sentences (fitdf.thesis): the rules at their
+"""The Tables 5.1/5.2 comparison's record and sentences (fitdf.limit_cycle_tables): the rules at their
 boundaries against independent statistics, held-out scales that never see their block, the
 simulated loop's verdicts, and every sentence recomputed from the fields it names."""
 
@@ -11,17 +11,17 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-import fitdf.thesis.comparison as comparison
+import fitdf.limit_cycle_tables.comparison as comparison
 from fitdf._json import clean
 from fitdf.data import datasets
-from fitdf.thesis import (
+from fitdf.limit_cycle_tables import (
     THESIS_BLOCKS,
     estimate_thesis_scales,
     held_out_scales,
     limit_cycle_statements,
     per_block_scales,
 )
-from fitdf.thesis.summary import (
+from fitdf.limit_cycle_tables.summary import (
     LEVEL_CONFIDENCE,
     _position,
     mean_interval,

@@ -7,6 +7,7 @@ import pytest
 
 from fitdf.errors import OptionError
 from fitdf.inference.api import fit
+from fitdf.limit_cycle_tables import THESIS_PLANT
 from fitdf.loop import simulate
 from fitdf.loop.check import time_domain_check
 from fitdf.loop.elements import CoreElement, RelayHysteresis, Saturation
@@ -19,7 +20,6 @@ from fitdf.loop.simulate import (
     tabulated_describing_function,
 )
 from fitdf.models import get_model
-from fitdf.thesis import THESIS_PLANT
 
 PLANT = "1/(s(s+1)(s+2))"
 

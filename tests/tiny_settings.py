@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fitdf.report.build import ReportSettings, job_cache
+from fitdf.report.build import job_cache
+from fitdf.report.settings import ReportSettings
 
 #: A report small enough for unit tests; every section and every kind of figure is still
 #: produced: two blocks (one of them joint over two source impedances), least squares, a
@@ -15,7 +16,7 @@ TINY = ReportSettings(
     models=("proportional_width",),
     blocks=("B.1", "permalloy-joint"),
     n_starts=2,
-    mcmc_top=1,
+    posterior_top=1,
     # nested sampling with fewer live points than a report's: the posterior of this 5- or
     # 6-parameter law converges in about 10,000 evaluations
     sampler="nested",

@@ -12,6 +12,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from fitdf._text import TEXT_WIDTH, wrap
 from fitdf.errors import ModelError
 from fitdf.params import Parametrized, ParamSpec
 
@@ -48,6 +49,17 @@ class MeasurementChain(Parametrized):
     #: True when the law's input is the winding current (A) and its output the flux
     #: linkage (V s), so a core's geometry turns its parameters into material constants.
     winding_units: ClassVar[bool] = True
+
+    @classmethod
+    def text(cls, width: int = TEXT_WIDTH, brief: bool = False, default: bool = False) -> str:
+        """The chain as text within ``width`` columns: name (``default``: marked as the
+        default), title, then its parameters (``brief``: their names only)."""
+        name = f"{cls.name} (default)" if default else cls.name
+        if brief:
+            names = ", ".join(p.name for p in cls.params) or "none"
+            return "\n".join(wrap(f"{name}: {cls.title}; parameters: {names}", width, "", "    "))
+        lines = wrap(f"{name}: {cls.title}", width, "", "    ")
+        return "\n".join([*lines, cls.parameters_text("    ", width)])
 
     @classmethod
     def operating_point(

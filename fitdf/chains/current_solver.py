@@ -95,6 +95,12 @@ def solve_current(
     -------
     current, Z : numpy.ndarray
         ``I`` (0 where ``V <= 0``; NaN where no root was bracketed) and ``Z(I)``.
+
+    Notes
+    -----
+    Long by design: the stages above share the per-point state (brackets, their values, the
+    best point, the model calls left) and hand the unconverged points from one to the next;
+    their order and hand-over are the algorithm, read here in one place.
     """
     shape = np.broadcast_shapes(np.shape(voltage), np.shape(resistance))
     V = np.broadcast_to(np.asarray(voltage, float), shape).ravel()

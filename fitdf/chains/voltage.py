@@ -51,8 +51,8 @@ from fitdf.chains._periodic import (
     half_periods,
     kernel_array,
     place_nodes,
-    secant_update,
 )
+from fitdf.chains._secant import secant_update
 from fitdf.chains.base import R_MIN, MeasurementChain, OperatingPoint, as_points
 from fitdf.chains.winding import WindingChain
 from fitdf.errors import ModelError
@@ -274,7 +274,7 @@ def _search(
     """Root of ``G`` for the points ``idx`` from ``x0``, and the DF there.
 
     ``evaluate(sub, x)`` returns ``(G, DF)`` for the subset ``sub`` (positions into
-    ``idx``); each step is then :func:`~fitdf.chains._periodic.secant_update`, compiled,
+    ``idx``); each step is then :func:`~fitdf.chains._secant.secant_update`, compiled,
     per point. A bracket ``[lo, hi]`` (``G(lo) > 0 >= G(hi)``; ``hi`` starts at ``V/R``
     where ``G <= 0``) is kept with the two newest points on each side.
 
@@ -314,10 +314,10 @@ def _search(
     0; ``G`` jumps at the edge but crosses 0 continuously just beyond it, in a sliver that
     can be 1e-5 of the amplitude wide, and the steady state is that crossing. There a bracket
     is accepted only once narrower than
-    :data:`~fitdf.chains._periodic.BRACKET_FLOOR` (never an interpolation between a closed
+    :data:`~fitdf.chains._secant.BRACKET_FLOOR` (never an interpolation between a closed
     and an open loop: it gave half the DF), and a secant root only if also the DF's
     quadratic term at the root, from its curvature through the bracket's other end, is at
-    most :data:`~fitdf.chains._periodic.CURVATURE_SHARE` times ``df_tol`` (beyond the
+    most :data:`~fitdf.chains._secant.CURVATURE_SHARE` times ``df_tol`` (beyond the
     edge the DF bends steeply, and two points farther out can have a nearly flat secant).
 
     Returns ``(root, DF at the root, slope of G, slope of DF, lower end of the bracket)``;

@@ -18,7 +18,8 @@ column a documented decision of the dataset takes reversed (the bundled Table B.
 phase, :func:`fitdf.data.datasets.decisions`); a column check (6) flags is taken reversed
 only under the ``reordered`` policy, when the user asks.
 
-The rules (rows under audit, checks, thresholds) are in :mod:`fitdf.data.audit_rules`.
+The rules are in :mod:`fitdf.data.audit_rules` (checks 1-5), :mod:`fitdf.data.audit_order`
+(check 6) and :mod:`fitdf.data.audit_rows` (the rows under audit, the thresholds).
 """
 
 from __future__ import annotations
@@ -28,22 +29,17 @@ import re
 import numpy as np
 import pandas as pd
 
+from fitdf.data.audit_order import REVERSAL_MARGIN, REVERSAL_RATIO
+from fitdf.data.audit_rows import _AUDIT_COLUMNS, _REVERSED_REASON, MAG_SPIKE, PHASE_SPIKE, _columns
 from fitdf.data.audit_rules import (
-    _AUDIT_COLUMNS,
     _DECISION_REASON,
-    _REVERSED_REASON,
     APPLIED_COLUMN,
-    DECISION_COLUMN,
-    MAG_SPIKE,
-    PHASE_SPIKE,
-    REVERSAL_MARGIN,
-    REVERSAL_RATIO,
     _analyse,
-    _columns,
     _order_only,
     _pending,
     _reversed_rows,
 )
+from fitdf.data.datasets import DECISION_COLUMN
 from fitdf.errors import OptionError
 
 __all__ = [

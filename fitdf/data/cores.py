@@ -235,7 +235,7 @@ class CoreGeometry:
         if not (od > idia > 0 and h > 0):
             raise OptionError(
                 f"core dimensions: need outside diameter > inside diameter > 0 and height > 0, "
-                f"got {od!r}, {idia!r}, {h!r}"
+                f"got outside {od * 1e3:g} mm, inside {idia * 1e3:g} mm, height {h * 1e3:g} mm"
             )
         if not 0 < sf <= 1:
             raise OptionError(f"stacking factor must lie in (0, 1], got {sf!r}")
@@ -546,10 +546,16 @@ def parse_geometry(text: str, name: str = "user core") -> CoreGeometry:
             raise OptionError(f"{source}: {key} must be positive, got {pairs[key]}")
         return value
 
+    od, idia = _length("od", pairs["od"]), _length("id", pairs["id"])
+    if not od > idia:  # said in the user's own units
+        raise OptionError(
+            f"{source}: od={pairs['od']} must be larger than id={pairs['id']} (the outside and "
+            "inside diameters of the toroid)"
+        )
     return CoreGeometry.from_dimensions(
         number("turns"),
-        _length("od", pairs["od"]),
-        _length("id", pairs["id"]),
+        od,
+        idia,
         _length("height", pairs["height"]),
         stacking_factor=number("stacking") if "stacking" in pairs else STACKING_FACTOR,
         # a stated stacking factor is known; without one, it lies in the range of tape cores

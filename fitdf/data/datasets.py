@@ -446,7 +446,7 @@ def _parse(raw: bytes, label: str, *, stem: str, bundled: bool) -> pd.DataFrame:
         if col in DECIMAL_COLUMNS:
             decimals[f"{col}_decimals"] = pd.array(places, dtype="Int64")
     n = len(data)
-    _check_values(out, lines, label, bundled)
+    _check_values(out, lines, label, bundled, cols)
     frame = pd.DataFrame(index=pd.RangeIndex(n))
     text_default = {"table": stem, "core": stem, "graph": "", "core_part": "", "source": None}
     for col in APPENDIX_B_COLUMNS:
@@ -479,12 +479,14 @@ def _parse(raw: bytes, label: str, *, stem: str, bundled: bool) -> pd.DataFrame:
     return frame
 
 
-def _check_values(out, lines, label, bundled):
+def _check_values(out, lines, label, bundled, cells):
     required = ["input_v", "frequency_hz", "df_reported"] + ([] if bundled else ["phase_lead_deg"])
     for col in required + ["source_impedance_ohm"]:
         if col in out and np.isnan(out[col]).any():
             r = int(np.flatnonzero(np.isnan(out[col]))[0])
-            _fail(label, "value required but the cell is empty", r + 1, lines[r], col)
+            cell = cells[col][r]
+            what = "is empty" if not cell else f"reads {_show(cell)}, a missing value"
+            _fail(label, f"value required but the cell {what}", r + 1, lines[r], col)
     rules = (
         ("input_v", lambda v: v > 0, "amplitude must be positive"),
         ("frequency_hz", lambda v: v > 0, "frequency must be positive"),

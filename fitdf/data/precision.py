@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from fitdf.data.audit_rules import _resolutions, _Rows
+from fitdf.data.audit_rows import _Rows
+from fitdf.data.audit_rules import _resolutions
 
 __all__ = ["reading_resolution"]
 

@@ -11,7 +11,7 @@ measures that under the box halved (about the best fit, kept inside the box) and
 parameters), the doubled box stopping at each parameter's physical limits.
 
 A box inside the prior's needs no new sampling (:func:`restricted_log_evidence`): the prior
-restricted to a sub-box ``B'`` has the evidence ``Z' = Z P(B' | data) pi(x) / pi'(x)`` (any
+restricted to a sub-box ``B'`` has the evidence ``Z' = Z P(B' | data) pi'(x) / pi(x)`` (any
 ``x`` in ``B'``; the two densities differ there by a constant), where ``P(B' | data)`` is
 the share of the posterior's draws inside ``B'``. It is exact but for that share's sampling
 error, so the halved box is sampled afresh only where few draws fall inside it. A box wider
@@ -54,6 +54,10 @@ MISSED_BY_ERRORS = 3.0
 
 def restricted_log_evidence(log_evidence, draws, n_effective, prior, sub_prior):
     """``ln Z`` of a prior restricted to a box inside its own, from the posterior's draws.
+
+    ``Z' = int_B' L pi' = (pi'(x) / pi(x)) int_B' L pi = Z P(B' | data) pi'(x) / pi(x)``:
+    the restricted prior ``pi'`` is ``pi`` renormalised to ``B'``, a constant factor of at
+    least 1 there.
 
     Parameters
     ----------

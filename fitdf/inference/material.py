@@ -48,6 +48,7 @@ from fitdf.chains import series_resistance_prior
 from fitdf.data.cores import CoreGeometry, appendix_a_ranges
 from fitdf.errors import ModelError, OptionError
 from fitdf.inference.caveats import undetermined_parameters
+from fitdf.inference.presentation import MaterialRecord
 from fitdf.params import PER_TABLE, parameter_base
 
 __all__ = [
@@ -556,8 +557,9 @@ def induction_from_flux_linkage(flux_linkage, geometry: CoreGeometry):
     return _float(geometry.induction_gauss(flux_linkage))
 
 
-def material_record(result) -> dict | None:
-    """Material constants of a fit and, for an Appendix A core, their check (JSON-ready).
+def material_record(result) -> MaterialRecord | None:
+    """Material constants of a fit and, for an Appendix A core, their check (a JSON-ready
+    dict that also presents itself, :class:`~fitdf.inference.presentation.MaterialRecord`).
 
     None when the fit has no core geometry or its chain is not in winding units (the
     check is then absent, not invented). ``current_max`` is the largest peak winding
@@ -597,7 +599,7 @@ def material_record(result) -> dict | None:
         for name in undetermined_parameters(problem, result.intervals, result.internal)
         if parameter_base(name) not in PER_TABLE
     ]
-    return clean(
+    record = clean(
         {
             "core": data.core,
             "constants": {**constants.to_dict(), "implied_stacking_factor": implied},
@@ -608,6 +610,7 @@ def material_record(result) -> dict | None:
             "caveat": _caveat(loose),
         }
     )
+    return MaterialRecord(record)
 
 
 def _caveat(loose) -> str | None:

@@ -5,8 +5,8 @@ Provides :func:`fit_mcmc`, which samples the posterior of a
 :class:`~fitdf.inference.results.PosteriorResult`; the vectorised log-posterior
 :class:`LogPosterior` and the sampler's coordinates :class:`BoxCoordinates`; the diagnostics
 :func:`autocorr_time` and :func:`chain_diagnostics`; and the convergence rule
-:func:`is_converged` with its thresholds :data:`MIN_STEPS_OVER_TAU` (50 autocorrelation
-times), :data:`RHAT_MAX` (1.01) and :data:`MIN_ESS` (400).
+:func:`is_converged` with its thresholds :data:`MIN_STEPS_OVER_TAU` (autocorrelation
+times), :data:`RHAT_MAX` and :data:`MIN_ESS`.
 
 Notes
 -----
@@ -25,11 +25,10 @@ keep the previous round's shape and its moves accept (at least two adapted round
 ``max_pilot_rounds``); it is discarded. Production continues ``n_chains`` of its walkers as
 independent Metropolis-Hastings chains with the fixed moves of
 :func:`fitdf.inference.proposals.production_moves`, and is extended in blocks until
-:func:`is_converged` holds (at least 50 integrated autocorrelation times, every
-rank-normalised R-hat below 1.01, every bulk ESS at least 400) or ``max_steps`` is reached;
-it stops earlier once 50 autocorrelation times exceed ``max_steps``, and a chain that
-reaches ``max_steps`` on course for 50 autocorrelation times but short of R-hat or ESS may
-go on to ``extend_steps``. The point estimate is the draw of highest posterior, intervals
+:func:`is_converged` holds (its integrated autocorrelation times, rank-normalised R-hat and
+bulk ESS) or ``max_steps`` is reached; it stops earlier once :data:`MIN_STEPS_OVER_TAU`
+autocorrelation times exceed ``max_steps``, and a chain that reaches ``max_steps`` on course
+for them but short of R-hat or ESS may go on to ``extend_steps``. The point estimate is the draw of highest posterior, intervals
 are posterior percentiles, and the warnings name what the posterior does not settle
 (:mod:`fitdf.inference.caveats`); the result is assembled as nested sampling's is
 (:func:`fitdf.inference.posterior.posterior_result`). A seed fixes the whole run.
@@ -55,6 +54,7 @@ import pandas as pd
 from scipy.special import expit, log_expit, logit
 
 from fitdf._arviz import arviz, walkers_as_chains
+from fitdf.inference.convergence import MIN_ESS, MIN_STEPS_OVER_TAU, RHAT_MAX
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
 from fitdf.inference.posterior import PERCENTS, QUANTILES, posterior_result, recorded_warnings
 from fitdf.inference.priors import noise_priors_text
@@ -207,15 +207,6 @@ def _initial_ball(problem, lsq: FitResult, n_walkers, rng, bounds):
     return np.clip(p0, lo + 1e-9 * width, hi - 1e-9 * width)
 
 
-#: R-hat at or above this is reported as not converged (rank-normalised split R-hat, walkers
-#: as chains; Vehtari et al. 2021 recommend 1.01).
-RHAT_MAX = 1.01
-#: The chain must be at least this many integrated autocorrelation times long.
-MIN_STEPS_OVER_TAU = 50
-#: ... and every parameter's bulk effective sample size at least this.
-MIN_ESS = 400
-
-
 def _as_arviz(chain, names) -> dict:
     """An emcee array ``(draw, walker, parameter)`` as ArviZ variables ``(chain, draw)``:
     walkers become ArviZ chains."""
@@ -245,8 +236,8 @@ def chain_diagnostics(samples, names) -> dict:
 
 
 def is_converged(steps_over_tau, rhat, ess_bulk=None) -> bool:
-    """The convergence rule: at least 50 autocorrelation times, every R-hat below 1.01 and
-    (when given) every bulk ESS at least 400."""
+    """The convergence rule: at least :data:`MIN_STEPS_OVER_TAU` autocorrelation times, every
+    R-hat below :data:`RHAT_MAX` and (when given) every bulk ESS at least :data:`MIN_ESS`."""
     ess_ok = ess_bulk is None or min(ess_bulk.values()) >= MIN_ESS
     return bool(steps_over_tau >= MIN_STEPS_OVER_TAU and max(rhat.values()) < RHAT_MAX and ess_ok)
 

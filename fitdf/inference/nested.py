@@ -40,8 +40,9 @@ variance ``(1 - a) / (n a)`` for acceptance ``a`` of ``n`` draws); bounds are in
 so the relative variances add, weighted by each shell's share of the evidence squared.
 ``tests/test_nested.py`` checks it against Gaussian likelihoods whose evidence is known.
 
-**Convergence** (:func:`is_converged`): at least 400 effective draws (the bulk ESS MCMC
-asks for, :data:`fitdf.inference.mcmc.MIN_ESS`) and an evidence error of at most 0.3. The
+**Convergence** (:func:`is_converged`): at least :data:`MIN_EFFECTIVE` effective draws (the
+bulk ESS MCMC asks for, :data:`fitdf.inference.mcmc.MIN_ESS`) and an evidence error of at
+most :data:`MAX_LOG_EVIDENCE_ERROR`. The
 run goes on, in rounds of a larger target of effective draws, until both hold or the
 evaluations reach ``max_evaluations``.
 
@@ -80,6 +81,7 @@ import pandas as pd
 from scipy.special import logsumexp
 from scipy.stats import truncnorm
 
+from fitdf.inference.convergence import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.inference.noise import NoiseMarginal
 from fitdf.inference.posterior import PERCENTS, QUANTILES, posterior_result
 from fitdf.inference.priors import noise_prior_description, noise_priors_text, prior_description
@@ -103,10 +105,6 @@ __all__ = [
     "SAMPLERS",
 ]
 
-#: The convergence rule: at least this many effective draws (Kish) ...
-MIN_EFFECTIVE = 400
-#: ... and an error of the log-evidence of at most this.
-MAX_LOG_EVIDENCE_ERROR = 0.3
 #: The samplers :func:`fit_nested` runs (``benchmarks/compare_samplers.py`` compares others).
 SAMPLERS = ("nautilus",)
 #: nautilus's live points and networks per bound, chosen by ``benchmarks/compare_samplers.py``:
@@ -429,8 +427,7 @@ def fit_nested(
         raise ValueError(f"unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
     rng = np.random.default_rng(seed)
     # (the chain's solver starts cold: the sampler draws from the whole prior box, where a
-    # start at the optimum's currents is no faster, and from those currents the solver may
-    # not return at a point far from the optimum)
+    # start at the optimum's currents is no faster)
     transform = PriorTransform(problem)
     loglike = NestedLikelihood(problem)
     P = problem.ndim

@@ -34,6 +34,7 @@ from fitdf.errors import DataError, OptionError
 from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data, resolve_geometry
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.metrics import residual_metrics
+from fitdf.inference.presentation import comparison_text, summary_record
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.selection import (
     TIE_TWO_LN_B,
@@ -424,12 +425,28 @@ def _ties(results, table) -> list[str]:
 
 @dataclass(frozen=True)
 class Comparison:
-    """Fitted results, their ranking (:func:`compare_fits`) and the laws the rows could not
-    rank (``not_ranked``: :func:`~fitdf.inference.selection.not_ranked_record`)."""
+    """Fitted results, their ranking (:func:`compare_fits`; ``table``, ordered by
+    ``rank_by``) and the laws the rows could not rank (``not_ranked``:
+    :func:`~fitdf.inference.selection.not_ranked_record`)."""
 
     table: pd.DataFrame
     results: tuple
     not_ranked: tuple = ()
+    rank_by: str = "aicc"
+
+    def text(self, wide: bool = False, brief: bool = False) -> str:
+        """The ranking, what the selection rule calls best, the best fit (unless ``brief``)
+        and the posteriors' checks, within 100 columns unless ``wide``
+        (:func:`fitdf.inference.presentation.comparison_text`)."""
+        return comparison_text(self, wide=wide, brief=brief)
+
+    def __str__(self):
+        return self.text()
+
+    def summary_record(self, data) -> dict:
+        """The best law of these rows (``data``: their name) and how well it fits: one row of
+        a batch summary (:func:`fitdf.inference.presentation.summary_record`)."""
+        return summary_record(self, data)
 
     @property
     def selection(self):
@@ -471,10 +488,12 @@ def compare_fits(
         data, models, chains, methods, seed, progress, runner, cross_validation, kw, True
     )
     if not cross_validation:
-        return Comparison(ranking_table(done, rank_by, None), tuple(done), tuple(not_ranked))
+        table = ranking_table(done, rank_by, None)
+        return Comparison(table, tuple(done), tuple(not_ranked), rank_by)
     results = [r for r, _ in done]
     cv = {i: folds for i, (_, folds) in enumerate(done) if folds is not None}
-    return Comparison(ranking_table(results, rank_by, cv), tuple(results), tuple(not_ranked))
+    table = ranking_table(results, rank_by, cv)
+    return Comparison(table, tuple(results), tuple(not_ranked), rank_by)
 
 
 def compare(

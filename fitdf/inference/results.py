@@ -20,6 +20,7 @@ import pandas as pd
 from fitdf._json import clean
 from fitdf.inference.metrics import phase_difference_deg, residual_metrics
 from fitdf.inference.posterior_data import inference_data
+from fitdf.inference.presentation import fit_text
 from fitdf.params import DIMENSIONLESS
 
 __all__ = ["FitResult", "PosteriorResult", "PointwiseLikelihood", "residual_table", "METHOD_TITLES"]
@@ -182,9 +183,12 @@ class FitResult:
             return f"{value:.4g}" if np.isfinite(value) else "n/a"
 
         m = self.metrics
-        lines = [
+        head = (
             f"{self.model} + {self.chain} chain ({self.method}) on {self.label}: "
-            f"{m['n_points']} rows, {m['n_params']} parameters",
+            f"{m['n_points']} rows, {m['n_params']} parameters"
+        )
+        lines = [
+            *textwrap.wrap(head, width, subsequent_indent="  ", break_on_hyphens=False),
             f"  RMS complex {m['rms_complex']:.4f}  magnitude {m['rms_magnitude']:.4f}  "
             f"phase {m['rms_phase_deg']:.2f} deg  redchi {m['redchi']:.3g}  AICc {m['aicc']:.1f}",
         ]
@@ -214,8 +218,17 @@ class FitResult:
             )
         return "\n".join(lines)
 
+    def text(self, width: int = 100) -> str:
+        """:meth:`summary`, the material constants and, for a posterior, its convergence
+        check (:func:`fitdf.inference.presentation.fit_text`)."""
+        return fit_text(self, width)
+
+    def table(self) -> pd.DataFrame:
+        """The parameters: :meth:`parameter_table`."""
+        return self.parameter_table()
+
     def __str__(self):
-        return self.summary()
+        return self.text()
 
     def to_dict(self) -> dict:
         """Plain-Python (JSON-ready) record of the result."""

@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from fitdf._text import TEXT_WIDTH, wrap
 from fitdf.errors import DataError
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "TIE_AICC",
     "TIE_TWO_LN_B",
     "TIE_LOO_SE",
+    "TIE_RULES",
     "aicc_tie",
     "evidence_tie",
     "loo_tie",
@@ -62,6 +64,15 @@ TIE_TWO_LN_B = 2.0
 #: Two PSIS-LOO fits are a tie when their elpd differ by less than this many standard errors
 #: of the difference (``dse`` of :func:`arviz.compare`).
 TIE_LOO_SE = 2.0
+
+
+#: Each method's tie rule in words (the ranking's ``ties``, :func:`aicc_tie`,
+#: :func:`loo_tie`, :func:`evidence_tie`), rendered from the thresholds above.
+TIE_RULES = {
+    "lsq": f"AICc within {TIE_AICC:g}",
+    "mcmc": f"elpd_loo within {TIE_LOO_SE:g} standard errors of the difference",
+    "nested": f"2 ln B < {TIE_TWO_LN_B:g} (a Bayes factor below {math.exp(TIE_TWO_LN_B / 2):.3g})",
+}
 
 
 def aicc_tie(aicc_a: float, aicc_b: float) -> bool:
@@ -259,12 +270,29 @@ class Selection:
             + "."
         )
 
+    def text(self, width: int = TEXT_WIDTH) -> str:
+        """What the rule calls best, the criteria that disagree and the laws not ranked, as
+        lines wrapped at ``width``."""
+        lines = wrap(self.sentence, width)
+        if self.disagreement:
+            lines += wrap(self.disagreement, width)
+        if self.not_ranked:
+            laws = ", ".join(f"{r['model']} ({r['n_params']} parameters)" for r in self.not_ranked)
+            n = self.not_ranked[0]["n_points"]
+            lines += wrap(
+                f"Not fitted or ranked, {n} rows being too few ({ROWS_RULE}): {laws}.", width
+            )
+        return "\n".join(lines)
+
+    def __str__(self):
+        return self.text()
+
     def to_dict(self) -> dict:
         return {
             "criterion": self.criterion,
             "best": None if self.best is None else dict(self.best),
             "ties": list(self.ties),
-            "tie_rule": f"AICc within {TIE_AICC:g}",
+            "tie_rule": TIE_RULES["lsq"],
             "opinions": [dict(o) for o in self.opinions],
             "agree": self.agree,
             "not_ranked": [dict(r) for r in self.not_ranked],

@@ -15,6 +15,7 @@ from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data
 from fitdf.inference.ranking import best_by_aicc
 from fitdf.loop.harmonic import LimitCycleResponse, limit_cycles
 from fitdf.loop.plant import as_loop_plant
+from fitdf.loop.presentation import limit_cycle_text
 from fitdf.models import model_names
 
 __all__ = ["FittedLimitCycles", "fitted_limit_cycles"]
@@ -31,6 +32,18 @@ class FittedLimitCycles:
     fits: tuple
     best: object
     response: LimitCycleResponse
+
+    def text(self, width: int = 100) -> str:
+        """The plant, the core's fit and the cycles of every gain
+        (:func:`fitdf.loop.presentation.limit_cycle_text`)."""
+        return limit_cycle_text(self.to_dict(), width)
+
+    def table(self):
+        """One row per cycle (:meth:`fitdf.loop.response.LimitCycleResponse.table`)."""
+        return self.response.table()
+
+    def __str__(self):
+        return self.text()
 
     def to_dict(self) -> dict:
         """JSON-ready record (the ``--json`` output of ``fitdf limit-cycle``)."""
@@ -55,6 +68,13 @@ class FittedLimitCycles:
         }
 
 
+def _fit_law(data, model, chain, seed, source_impedance, n_starts):
+    """One law's least-squares fit (a job of :func:`fitted_limit_cycles`)."""
+    return fit(
+        data, model, chain=chain, seed=seed, source_impedance=source_impedance, n_starts=n_starts
+    )
+
+
 def fitted_limit_cycles(
     data,
     plant,
@@ -68,6 +88,7 @@ def fitted_limit_cycles(
     omega_range=None,
     time_scale=1.0,
     n_starts=6,
+    runner=None,
 ) -> FittedLimitCycles:
     """Fit the core, then find the limit cycles of the loop closed around it.
 
@@ -88,6 +109,10 @@ def fitted_limit_cycles(
         As in :func:`fitdf.loop.harmonic.limit_cycles`.
     n_starts : int
         Least-squares starts per model.
+    runner : callable, optional
+        Runs the fits: ``runner(jobs, desc) -> results`` on ``{key: (function, args)}``, such
+        as :meth:`fitdf.executor.Executor.run` with a job cache (``fitdf limit-cycle``
+        keeps its fits as ``fitdf fit`` does); None fits here, one law after the other.
     """
     lp = as_loop_plant(plant, time_scale)  # a bad plant fails now, before any fitting
     rows = resolve_data(data, source_impedance=source_impedance)  # and so do bad data
@@ -100,12 +125,15 @@ def fitted_limit_cycles(
             )
         source_impedance = found[0]
     names = [model] if model else model_names()
-    fits = tuple(
-        fit(
-            data, name, chain=chain, seed=seed, source_impedance=source_impedance, n_starts=n_starts
-        )
-        for name in names
-    )
+    # keyed by position too, as compare_fits keys its fits: a law listed twice is fitted twice
+    jobs = {
+        (i, name, chain): (_fit_law, (data, name, chain, seed, source_impedance, n_starts))
+        for i, name in enumerate(names)
+    }
+    if runner is None:
+        fits = tuple(fn(*args) for fn, args in jobs.values())
+    else:
+        fits = tuple(runner(jobs, "fitting").values())
     best = best_by_aicc(fits)
     resp = limit_cycles(
         lp,

@@ -88,8 +88,8 @@ DEDUP_TOL = ROOT_TOL
 #: ``K/((1+s)(1+0.25s)(1+1.1s))``: cycles at gains 45 and 150, none found at 60-120).
 #: At the edge of a saturation jump the DF also steps by ~1e-4 between amplitudes 2e-4
 #: apart (B.1 proportional_width, 0 ohm, ``A`` 2.35 V at 1.8 Hz), and differences over 1e-4
-#: stalled there at a residual of 5e-3 (the cycle at gain 87.6 of the thesis plant, time
-#: scale 2.5, was lost); 1e-3 is far above both and still far below the scale on which
+#: stall there at a residual of 5e-3 (and lose the cycle at gain 87.6 of the thesis plant,
+#: time scale 2.5); 1e-3 is far above both and still far below the scale on which
 #: ``F`` bends; the roots converge to ~1e-15 (the Jacobian only steers, the residual is
 #: exact).
 REFINE_DIFF_STEP = 1e-3
@@ -103,7 +103,7 @@ REFINE_TRIALS = 12
 #: which ``F`` bends. B.1 proportional_width in the thesis plant (time scale 2.5, 12 gains
 #: 20-300): the sine of the crossing angle as a function of the gain is smooth at 1e-2 and
 #: 3e-2 (within 1e-3 of each other); at 1e-3 it still scatters by 0.04, at 1e-4 by 0.2, and
-#: at the former 1e-6 it called one cycle unstable (-0.20) between stable ones (0.94-0.98).
+#: at 1e-6 it calls one cycle unstable (-0.20) between stable ones (0.94-0.98).
 #: For a callable the sine moves by ~1e-4 from its limit (the relay with hysteresis of
 #: :func:`limit_cycles`'s example: 5e-5).
 LOEB_DIFF_STEP = 1e-2

@@ -16,6 +16,7 @@ import pandas as pd
 
 from fitdf._json import clean
 from fitdf.loop.plant import LoopPlant
+from fitdf.loop.presentation import response_text
 
 __all__ = ["LimitCycle", "LimitCycleResponse"]
 
@@ -133,6 +134,14 @@ class LimitCycleResponse:
                     }
                 )
         return pd.DataFrame(rows)
+
+    def text(self, width: int = 100) -> str:
+        """The cycles of every gain as a table with its legend, the critical gain and the
+        warnings (:func:`fitdf.loop.presentation.response_text`)."""
+        return response_text(self.to_dict(), width)
+
+    def __str__(self):
+        return self.text()
 
     def stable_cycles(self, which: str = "largest") -> pd.DataFrame:
         """One row per gain: the stable cycle (largest or smallest amplitude), NaN if none."""

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import difflib
+
 from fitdf.errors import ModelError
 from fitdf.models.base import HysteresisModel
 from fitdf.models.constant_width import ConstantWidth
@@ -12,7 +14,7 @@ from fitdf.models.preisach import Preisach
 from fitdf.models.proportional_width import ProportionalWidth, ProportionalWidthFig42
 from fitdf.models.rayleigh import Rayleigh
 
-__all__ = ["HysteresisModel", "MODELS", "get_model", "model_names"]
+__all__ = ["HysteresisModel", "MODELS", "get_model", "model_names", "law_name"]
 
 #: Registered laws by name, in the order listings and reports show them.
 MODELS: dict[str, type[HysteresisModel]] = {
@@ -34,10 +36,21 @@ def model_names() -> list[str]:
     return list(MODELS)
 
 
+def law_name(name: str) -> str:
+    """The registered law ``name`` names, in any case (``"Preisach"`` -> ``"preisach"``); a
+    :class:`ModelError` otherwise, suggesting the nearest name when one is close."""
+    text = str(name)
+    by_lower = {n.lower(): n for n in MODELS}
+    if text.strip().lower() in by_lower:
+        return by_lower[text.strip().lower()]
+    close = difflib.get_close_matches(text.strip().lower(), list(by_lower), n=1, cutoff=0.6)
+    hint = f" (did you mean {by_lower[close[0]]!r}?)" if close else ""
+    shown = text if len(text) <= 40 else text[:37] + "..."
+    raise ModelError(f"unknown law {shown!r}{hint}; known laws: {', '.join(MODELS)}")
+
+
 def get_model(name) -> type[HysteresisModel]:
-    """Model class by name (a class passes through)."""
+    """Model class by name, in any case (:func:`law_name`; a class passes through)."""
     if isinstance(name, type) and issubclass(name, HysteresisModel):
         return name
-    if name not in MODELS:
-        raise ModelError(f"unknown model {name!r}; known models: {', '.join(MODELS)}")
-    return MODELS[name]
+    return MODELS[law_name(name)]

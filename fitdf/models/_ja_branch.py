@@ -1,7 +1,7 @@
 """The realised Jiles-Atherton branch: steady loops, monotone pieces, describing function.
 
 Per row ``(A, theta)`` the compiled kernels solve the steady loop on the forced response of
-its parameter set (:func:`~fitdf.models._ja_integrate._steady_closed`), lay out the nodes
+its parameter set (:func:`~fitdf.models._ja_closed._steady_closed`), lay out the nodes
 ``(H_e, M, dM/dH_e)`` of its ascending branch, cut the parametric cubics into pieces
 monotone in ``H`` (folds become vertical jumps), and on them integrate ``N(A)``, invert
 ``H(H_e)`` to evaluate the branch at given inputs, or sample it for tables; one kernel call
@@ -23,16 +23,8 @@ from collections import OrderedDict
 import numba
 import numpy as np
 
-from fitdf.models._ja_integrate import (
-    _CAP,
-    _cubic,
-    _grid,
-    _nodes_closed,
-    _poly,
-    _q_table,
-    _steady,
-    _steady_closed,
-)
+from fitdf.models._ja_closed import _grid, _nodes_closed, _q_table, _steady_closed
+from fitdf.models._ja_integrate import _CAP, _cubic, _poly, _steady
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(10)
 # Gauss-Legendre in v on [0, 1] through t = (1 - cos(pi v)) / 2: removes the square-root
@@ -467,7 +459,7 @@ def _table(A, th, tol, nmin, max_cap, G, qt, n_out):
 
 @numba.njit(cache=True)
 def _q_tables(lam, a, k, G):
-    """Forced responses (:func:`~fitdf.models._ja_integrate._q_table`), one row per set."""
+    """Forced responses (:func:`~fitdf.models._ja_closed._q_table`), one row per set."""
     out = np.empty((lam.size, G[0].size))
     for i in range(lam.size):
         _q_table(lam[i], a[i], k[i], G, out[i])
@@ -497,7 +489,7 @@ _R_IN, _R_OUT, _Z_IN = 16, 2, 2.0
 
 @functools.lru_cache(maxsize=16)
 def grid(tol):
-    """The universal nodes of tolerance ``tol`` (:func:`~fitdf.models._ja_integrate._grid`)."""
+    """The universal nodes of tolerance ``tol`` (:func:`~fitdf.models._ja_closed._grid`)."""
     out = _grid(float(tol), _R_IN, _R_OUT, _Z_IN)
     for v in out:
         v.flags.writeable = False
@@ -525,7 +517,7 @@ class ResponseCache:
     """Tabulated forced responses of recently seen parameter sets, bounded, per process.
 
     The steady loop of every amplitude comes from one table per ``(lambda_s, a, k)`` and
-    tolerance (:func:`~fitdf.models._ja_integrate._q_table`, ~900 nodes at the default
+    tolerance (:func:`~fitdf.models._ja_closed._q_table`, ~900 nodes at the default
     ``tol``, ~40 us); the ``voltage`` chain asks for one set's branches at new amplitudes
     ~15 times per prediction. A table is keyed by the bytes of ``(lambda_s, a, k, tol)``:
     equal bytes mean equal inputs, and a kept table is what a new one would be, so results

@@ -19,6 +19,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from fitdf._text import TEXT_WIDTH, wrap
 from fitdf.numerical_df import numerical_describing_function
 from fitdf.params import Parametrized, ParamSpec, split_theta
 
@@ -85,6 +86,24 @@ class HysteresisModel(Parametrized):
             np.asarray(frequency, float),
             **split_theta(cls.params, theta),
         )
+
+    @classmethod
+    def text(cls, width: int = TEXT_WIDTH, brief: bool = False) -> str:
+        """The law as text within ``width`` columns: name, title and thesis equations, whether
+        ``N`` depends on frequency, then its parameters (``brief``: without their meanings)."""
+        if brief:
+            rate = "; N depends on frequency" if cls.frequency_dependent else ""
+            lines = wrap(f"{cls.name}: {cls.title} ({cls.equations}){rate}", width, "", "    ")
+            return "\n".join([*lines, cls.parameters_text("    ", width, meanings=False)])
+        lines = wrap(f"{cls.name}: {cls.title}", width, "", "  ")
+        lines += wrap(f"thesis equations: {cls.equations}", width, "  ", "    ")
+        lines.append(
+            "  N depends on the frequency as well as the amplitude"
+            if cls.frequency_dependent
+            else "  N depends on the amplitude only (rate-independent loop)"
+        )
+        lines += ["", "Parameters of the law (the core's flux linkage against winding current):"]
+        return "\n".join([*lines, cls.parameters_text("  ", width)])
 
     @classmethod
     def _extra_description(cls) -> dict:

@@ -1,6 +1,6 @@
 """Figures of fitdf; the only package that imports matplotlib.
 
-:mod:`fitdf.plots.thesis` redraws the computed graphs of thesis Chapter IV
+:mod:`fitdf.plots.thesis_graphs` redraws the computed graphs of thesis Chapter IV
 (Graphs 4.1-4.7) from fitdf's models; :mod:`fitdf.plots.fits` draws fitted results
 (DF against amplitude, residuals, cross-impedance), :mod:`fitdf.plots.loci` their
 critical loci and :mod:`fitdf.plots.posterior` a posterior's corner plot;
@@ -13,7 +13,7 @@ from fitdf.plots.loci import plot_critical_loci
 from fitdf.plots.permeability import plot_matched_flux
 from fitdf.plots.posterior import plot_corner
 from fitdf.plots.summary import plot_summary
-from fitdf.plots.thesis import (
+from fitdf.plots.thesis_graphs import (
     THESIS_GRAPHS,
     graph_4_1,
     graph_4_2,

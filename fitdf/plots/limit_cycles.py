@@ -7,12 +7,12 @@
   measured core the loci lie in the second quadrant (phase lead, Fig 5.10).
 * :func:`plot_thesis_comparison` -- predicted vs measured amplitude and frequency
   against the system gain for Tables 5.1 and 5.2, unscaled and with the analog computer's
-  time and gain scales fitted to the other blocks (:mod:`fitdf.thesis.scales`), the
+  time and gain scales fitted to the other blocks (:mod:`fitdf.limit_cycle_tables.scales`), the
   simulated loop beside harmonic balance, the measured die-out brackets and the predicted
   critical gains.
 * :func:`plot_time_response` -- a simulated loop (:mod:`fitdf.loop.simulate`).
 
-Like :mod:`fitdf.plots.thesis`, figures are built on the Agg canvas without
+Like :mod:`fitdf.plots.thesis_graphs`, figures are built on the Agg canvas without
 ``pyplot``: no global backend switch and no figure registry that could leak (and warn,
 an error under ``filterwarnings = error``). Every function returns the Figure.
 """
@@ -123,7 +123,6 @@ def plot_nyquist(
     else:
         full = None
     fig = ax.figure
-    lp, N = response.plant, response.describing_function
     gains = _pick(response.gains, n_gains) if gains is None else np.atleast_1d(gains)
     cycles = response.intersections
     crit = response.critical_gain
@@ -139,76 +138,11 @@ def plot_nyquist(
             omegas = [first[1]]
         else:
             omegas = np.geomspace(*response.omega_range, n_loci + 2)[1:-1]
-    w = np.geomspace(*response.omega_range, n_points)
-    A = np.geomspace(*response.amplitude_range, n_points)
-    plant_curves, critical_curves = [], []
-    # (curve, style): drawn alike in both panels, labelled in the framed one
-    drawn = []
-    for k, g in enumerate(gains):
-        G = lp.response(w, [g])[0]
-        plant_curves.append(G)
-        drawn.append((G, dict(color=f"C{k}", lw=1.4, label=f"G(jw), K = {g:.4g}")))
-    if first is not None:
-        G = lp.response(w, [first[0]])[0]
-        plant_curves.append(G)
-        label = f"G(jw), K = {first[0]:.4g} (critical gain)"
-        drawn.append((G, dict(color="C3", lw=1.2, ls="--", label=label)))
-    for k, om in enumerate(np.atleast_1d(omegas)):
-        with np.errstate(all="ignore"):
-            loc = -1.0 / np.asarray(N(A, np.full_like(A, om)), complex)
-        critical_curves.append(loc)
-        style = dict(color="0.35", lw=1.0, ls=("-", "--", ":", "-.")[k % 4])
-        drawn.append((loc, {**style, "label": f"-1/N(A, w), w = {om:.3g} rad/s"}))
+    drawn, plant_curves, critical_curves = _nyquist_curves(response, gains, omegas, first, n_points)
     for target in (ax, full):
-        if target is None:
-            continue
-        for curve, style in drawn:
-            target.plot(
-                curve.real, curve.imag, **(style if target is ax else {**style, "label": None})
-            )
-        # stable (small, filled) on top of unstable rings
-        for c in sorted(cycles, key=lambda c: c.stable):
-            target.plot(
-                c.G.real,
-                c.G.imag,
-                "o",
-                color="k",
-                mfc="k" if c.stable else "white",
-                ms=6 if c.stable else 11,
-                zorder=6 if c.stable else 5,
-            )
-        target.axhline(0, color="0.8", lw=0.6)
-        target.axvline(0, color="0.8", lw=0.6)
-        target.set_xlabel("Re")
-        target.set_ylabel("Im")
-    if cycles:
-        ax.plot([], [], "o", color="k", mfc="k", label="stable cycle (Loeb)")
-        if not all(c.stable for c in cycles):
-            ax.plot([], [], "o", color="k", mfc="white", label="unstable cycle (Loeb)")
-        if len(cycles) <= 8:  # cycles at one point of the plane (gains apart) share a label
-            spots = {}
-            for c in cycles:
-                key = min(
-                    (k for k in spots if abs(k - c.G) < 1e-3 * abs(c.G)), default=c.G, key=abs
-                )
-                spots.setdefault(key, []).append(c.amplitude)
-            for G, amps in spots.items():
-                ax.annotate(
-                    "A = " + ", ".join(f"{a:.3g}" for a in sorted(amps)) + " V",
-                    (G.real, G.imag),
-                    xytext=(8, -10),
-                    textcoords="offset points",
-                    fontsize="x-small",
-                )
-        focus = [c.G for c in cycles]
-    elif first is not None:
-        Gc = complex(lp.response([first[1]], [first[0]])[0, 0])
-        ax.plot(Gc.real, Gc.imag, "D", color="C3", ms=6, zorder=6, label="first cycle")
-        if full is not None:
-            full.plot(Gc.real, Gc.imag, "D", color="C3", ms=6, zorder=6)
-        focus = [Gc]
-    else:
-        focus = []
+        if target is not None:
+            _draw_loci(target, drawn, cycles, labelled=target is ax)
+    focus = _mark_cycles(ax, full, cycles, first, response.plant)
     if not cycles:  # and how far the drawn plant loci stay from the critical loci
         pair = _closest_pair(plant_curves[: len(gains)], critical_curves)
         focus += list(pair) if pair is not None else []
@@ -230,6 +164,86 @@ def plot_nyquist(
         )
         full.set_title("whole loci (red box: left panel)", fontsize="medium")
     return fig
+
+
+def _nyquist_curves(response, gains, omegas, first, n_points):
+    """The curves of :func:`plot_nyquist`: ``(drawn, plant_curves, critical_curves)``, where
+    ``drawn`` pairs each curve with its style (drawn alike in both panels, labelled in the
+    framed one): the plant loci of ``gains`` and of the first cycle's gain, then the critical
+    loci at ``omegas``."""
+    lp, N = response.plant, response.describing_function
+    w = np.geomspace(*response.omega_range, n_points)
+    A = np.geomspace(*response.amplitude_range, n_points)
+    plant_curves, critical_curves, drawn = [], [], []
+    for k, g in enumerate(gains):
+        G = lp.response(w, [g])[0]
+        plant_curves.append(G)
+        drawn.append((G, dict(color=f"C{k}", lw=1.4, label=f"G(jw), K = {g:.4g}")))
+    if first is not None:
+        G = lp.response(w, [first[0]])[0]
+        plant_curves.append(G)
+        label = f"G(jw), K = {first[0]:.4g} (critical gain)"
+        drawn.append((G, dict(color="C3", lw=1.2, ls="--", label=label)))
+    for k, om in enumerate(np.atleast_1d(omegas)):
+        with np.errstate(all="ignore"):
+            loc = -1.0 / np.asarray(N(A, np.full_like(A, om)), complex)
+        critical_curves.append(loc)
+        style = dict(color="0.35", lw=1.0, ls=("-", "--", ":", "-.")[k % 4])
+        drawn.append((loc, {**style, "label": f"-1/N(A, w), w = {om:.3g} rad/s"}))
+    return drawn, plant_curves, critical_curves
+
+
+def _draw_loci(target, drawn, cycles, labelled: bool) -> None:
+    """The curves ``drawn`` (labelled or not) and the cycles on one panel, with its axes."""
+    for curve, style in drawn:
+        target.plot(curve.real, curve.imag, **(style if labelled else {**style, "label": None}))
+    # stable (small, filled) on top of unstable rings
+    for c in sorted(cycles, key=lambda c: c.stable):
+        target.plot(
+            c.G.real,
+            c.G.imag,
+            "o",
+            color="k",
+            mfc="k" if c.stable else "white",
+            ms=6 if c.stable else 11,
+            zorder=6 if c.stable else 5,
+        )
+    target.axhline(0, color="0.8", lw=0.6)
+    target.axvline(0, color="0.8", lw=0.6)
+    target.set_xlabel("Re")
+    target.set_ylabel("Im")
+
+
+def _mark_cycles(ax, full, cycles, first, lp) -> list:
+    """The cycles' legend entries and amplitudes on the framed panel ``ax``, else the first
+    cycle's point (on both panels); returns the points the frame must hold."""
+    if cycles:
+        ax.plot([], [], "o", color="k", mfc="k", label="stable cycle (Loeb)")
+        if not all(c.stable for c in cycles):
+            ax.plot([], [], "o", color="k", mfc="white", label="unstable cycle (Loeb)")
+        if len(cycles) <= 8:  # cycles at one point of the plane (gains apart) share a label
+            spots = {}
+            for c in cycles:
+                key = min(
+                    (k for k in spots if abs(k - c.G) < 1e-3 * abs(c.G)), default=c.G, key=abs
+                )
+                spots.setdefault(key, []).append(c.amplitude)
+            for G, amps in spots.items():
+                ax.annotate(
+                    "A = " + ", ".join(f"{a:.3g}" for a in sorted(amps)) + " V",
+                    (G.real, G.imag),
+                    xytext=(8, -10),
+                    textcoords="offset points",
+                    fontsize="x-small",
+                )
+        return [c.G for c in cycles]
+    if first is not None:
+        Gc = complex(lp.response([first[1]], [first[0]])[0, 0])
+        ax.plot(Gc.real, Gc.imag, "D", color="C3", ms=6, zorder=6, label="first cycle")
+        if full is not None:
+            full.plot(Gc.real, Gc.imag, "D", color="C3", ms=6, zorder=6)
+        return [Gc]
+    return []
 
 
 #: How each setting of the scales is drawn: (line style, simulated-loop marker, words).
@@ -254,7 +268,7 @@ def _comparison_title(df) -> str:
 
 
 def plot_thesis_comparison(df):
-    """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.thesis.thesis_limit_cycle_comparison`).
+    """Predicted vs measured limit cycles of Tables 5.1/5.2 (:func:`~fitdf.limit_cycle_tables.thesis_limit_cycle_comparison`).
 
     Columns are the cores, rows the amplitude and the angular frequency against the system
     gain. Markers: measured (circles 0 ohm, squares 600 ohm; x: the values printed for a row
@@ -271,109 +285,109 @@ def plot_thesis_comparison(df):
     for j, core in enumerate(cores):
         sub = df[df["core"] == core]
         for k, (rs, block) in enumerate(sub.groupby("source_impedance_ohm")):
-            color, marker = f"C{k}", ("o", "s")[k % 2]
-            first = block[block["setting"] == settings[0]].sort_values("system_gain")
-            live, dead = first[~first["dies_out"]], first[first["dies_out"]]
-            where = f"{rs:g} ohm ({first['table'].iloc[0]}, {first['model'].iloc[0]})"
-            lo = dead["system_gain"].max() if not dead.empty else np.nan
-            hi = live["system_gain"].min() if not live.empty else np.nan
-            for i, (meas, pred, sim) in enumerate(
+            for i, columns in enumerate(
                 (
                     ("amplitude_v", "amplitude_pred", "amplitude_sim"),
                     ("omega_rad_s", "omega_pred", "omega_sim"),
                 )
             ):
-                ax = axes[i, j]
-                ax.plot(
-                    live["system_gain"],
-                    live[meas],
-                    marker,
-                    color=color,
-                    mfc="none",
-                    label=f"measured, {where}",
-                )
-                # the tables print values for some rows marked "oscillations die out"
-                shown = dead[np.isfinite(dead[meas])]
-                if not shown.empty:
-                    ax.plot(
-                        shown["system_gain"],
-                        shown[meas],
-                        "x",
-                        color=color,
-                        ms=8,
-                        label=f'printed in a row marked "oscillations die out", {rs:g} ohm',
-                    )
-                if np.isfinite(lo) and np.isfinite(hi):
-                    ax.axvspan(
-                        lo,
-                        hi,
-                        color=color,
-                        alpha=0.12,
-                        lw=0,
-                        label=f"measured die-out bracket, {rs:g} ohm",
-                    )
-                for setting in settings:
-                    ls, sim_marker, words = SETTING_STYLES[setting]
-                    b = block[block["setting"] == setting].sort_values("system_gain")
-                    if setting == "held_out":
-                        words = (
-                            f"{words} (\u03b1 {b['alpha'].iloc[0]:.3g}, "
-                            f"\u03b2 {b['beta'].iloc[0]:.3g})"
-                        )
-                    ax.plot(
-                        b["system_gain"],
-                        b[pred],
-                        ls,
-                        color=color,
-                        lw=1.3,
-                        label=f"predicted largest stable cycle, {words}, {rs:g} ohm",
-                    )
-                    if sim in b:
-                        ax.plot(
-                            b["system_gain"],
-                            b[sim],
-                            sim_marker,
-                            color=color,
-                            ms=8,
-                            label=f"simulated loop, {SETTING_STYLES[setting][2]}, {rs:g} ohm",
-                        )
-                    crit = b["critical_gain_pred"].iloc[0]
-                    if np.isfinite(crit):
-                        ax.axvline(
-                            crit,
-                            color=color,
-                            ls=ls,
-                            lw=0.8,
-                            alpha=0.8,
-                            label="predicted gain below which no cycle exists, "
-                            f"{SETTING_STYLES[setting][2]}, {rs:g} ohm",
-                        )
-        axes[0, j].set_title(f"{core}", fontsize="medium")
-        axes[0, j].set_ylabel("amplitude (V)")
-        axes[1, j].set_ylabel("omega (rad/s)")
-        axes[1, j].set_xlabel("system gain K")
-        for ax in axes[:, j]:
-            ax.set_xscale("log")
-            ax.set_yscale("log")
-            for axis in (ax.xaxis, ax.yaxis):  # plain numbers at 1, 2, 5 x 10^k
-                axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-                axis.set_major_formatter(FormatStrFormatter("%g"))
-                axis.set_minor_formatter(FormatStrFormatter(""))
-        # one legend per column, under it: the entries of both rows (a row may lack some)
-        entries = {}
-        for ax in axes[:, j]:
-            for handle, label in zip(*ax.get_legend_handles_labels()):
-                entries.setdefault(label, handle)
-        axes[1, j].legend(
-            entries.values(),
-            entries.keys(),
-            fontsize="xx-small",
-            loc="upper center",
-            bbox_to_anchor=(0.5, -0.16),
-            ncol=1,
-        )
+                _draw_block(axes[i, j], block, settings, columns, rs, k)
+        _finish_column(axes[:, j], core)
     fig.suptitle(_comparison_title(df), fontsize="medium")
     return fig
+
+
+def _draw_block(ax, block, settings, columns, rs, k) -> None:
+    """One (core, source impedance) block of :func:`plot_thesis_comparison` on one panel:
+    the measured cycles (``columns``: measured, predicted and simulated column), the die-out
+    bracket, and per setting of the scales the predicted cycles, the simulated loop and the
+    critical gain; ``k`` numbers the block in its column (its colour and marker)."""
+    meas, pred, sim = columns
+    color, marker = f"C{k}", ("o", "s")[k % 2]
+    first = block[block["setting"] == settings[0]].sort_values("system_gain")
+    live, dead = first[~first["dies_out"]], first[first["dies_out"]]
+    where = f"{rs:g} ohm ({first['table'].iloc[0]}, {first['model'].iloc[0]})"
+    lo = dead["system_gain"].max() if not dead.empty else np.nan
+    hi = live["system_gain"].min() if not live.empty else np.nan
+    ax.plot(
+        live["system_gain"], live[meas], marker, color=color, mfc="none", label=f"measured, {where}"
+    )
+    # the tables print values for some rows marked "oscillations die out"
+    shown = dead[np.isfinite(dead[meas])]
+    if not shown.empty:
+        ax.plot(
+            shown["system_gain"],
+            shown[meas],
+            "x",
+            color=color,
+            ms=8,
+            label=f'printed in a row marked "oscillations die out", {rs:g} ohm',
+        )
+    if np.isfinite(lo) and np.isfinite(hi):
+        ax.axvspan(
+            lo, hi, color=color, alpha=0.12, lw=0, label=f"measured die-out bracket, {rs:g} ohm"
+        )
+    for setting in settings:
+        ls, sim_marker, words = SETTING_STYLES[setting]
+        b = block[block["setting"] == setting].sort_values("system_gain")
+        if setting == "held_out":
+            words = f"{words} (\u03b1 {b['alpha'].iloc[0]:.3g}, \u03b2 {b['beta'].iloc[0]:.3g})"
+        ax.plot(
+            b["system_gain"],
+            b[pred],
+            ls,
+            color=color,
+            lw=1.3,
+            label=f"predicted largest stable cycle, {words}, {rs:g} ohm",
+        )
+        if sim in b:
+            ax.plot(
+                b["system_gain"],
+                b[sim],
+                sim_marker,
+                color=color,
+                ms=8,
+                label=f"simulated loop, {SETTING_STYLES[setting][2]}, {rs:g} ohm",
+            )
+        crit = b["critical_gain_pred"].iloc[0]
+        if np.isfinite(crit):
+            ax.axvline(
+                crit,
+                color=color,
+                ls=ls,
+                lw=0.8,
+                alpha=0.8,
+                label="predicted gain below which no cycle exists, "
+                f"{SETTING_STYLES[setting][2]}, {rs:g} ohm",
+            )
+
+
+def _finish_column(column, core) -> None:
+    """A core's two panels: title, labels, log axes at 1, 2, 5 x 10^k, and one legend under
+    them holding the entries of both (a panel may lack some)."""
+    column[0].set_title(f"{core}", fontsize="medium")
+    column[0].set_ylabel("amplitude (V)")
+    column[1].set_ylabel("omega (rad/s)")
+    column[1].set_xlabel("system gain K")
+    for ax in column:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        for axis in (ax.xaxis, ax.yaxis):  # plain numbers at 1, 2, 5 x 10^k
+            axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+            axis.set_major_formatter(FormatStrFormatter("%g"))
+            axis.set_minor_formatter(FormatStrFormatter(""))
+    entries = {}
+    for ax in column:
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            entries.setdefault(label, handle)
+    column[1].legend(
+        entries.values(),
+        entries.keys(),
+        fontsize="xx-small",
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.16),
+        ncol=1,
+    )
 
 
 def plot_time_response(response, index=0, hb=None):

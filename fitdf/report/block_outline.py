@@ -177,7 +177,7 @@ def _param_blocks(rec, names):
     out = []
     for fits, ranking in (
         (rec["fits_lsq"], rec["ranking_lsq"]),
-        (rec["fits_mcmc"], rec["ranking_mcmc"]),
+        (rec["fits_posterior"], rec["ranking_posterior"]),
     ):
         if not fits:
             continue
@@ -216,16 +216,16 @@ EVIDENCE_COLS = [
 
 def _posterior_blocks(rec, names):
     """The posteriors' diagnostics, by sampler; an unconverged one is listed, not drawn."""
-    if not rec["fits_mcmc"]:
+    if not rec["fits_posterior"]:
         return [
             P(
                 "No posterior sampled on this block: this run samples the blocks its settings "
                 "name (above); `fitdf report --full` samples the best three laws of every block."
             )
         ]
-    nested = {m: f for m, f in rec["fits_mcmc"].items() if f.get("method") == "nested"}
+    nested = {m: f for m, f in rec["fits_posterior"].items() if f.get("method") == "nested"}
     out = _nested_blocks(rec, nested, names) if nested else []
-    if len(nested) < len(rec["fits_mcmc"]):
+    if len(nested) < len(rec["fits_posterior"]):
         out += _mcmc_blocks(rec, names)
     elif rec["figures"].get("corner"):
         out += [
@@ -348,10 +348,10 @@ def _nested_blocks(rec, fits, names):
 
 
 def _mcmc_blocks(rec, names):
-    if not any(f.get("method") == "mcmc" for f in rec["fits_mcmc"].values()):
+    if not any(f.get("method") == "mcmc" for f in rec["fits_posterior"].values()):
         return [P("No MCMC in this configuration.")]
     rows = []
-    for model, fit in rec["fits_mcmc"].items():
+    for model, fit in rec["fits_posterior"].items():
         if fit.get("method") != "mcmc":
             continue
         d = fit["diagnostics"]
@@ -490,8 +490,8 @@ def _block_blocks(rec, names):
         ),
         _records_table(_named(rec["ranking_lsq"], names, "model"), RANK_COLS),
     ]
-    if rec["ranking_mcmc"]:
-        nested = any(f.get("method") == "nested" for f in rec["fits_mcmc"].values())
+    if rec["ranking_posterior"]:
+        nested = any(f.get("method") == "nested" for f in rec["fits_posterior"].values())
         out += [
             P(
                 "Posteriors (nested sampling: highest-posterior draws), ordered by the Bayesian "
@@ -502,7 +502,7 @@ def _block_blocks(rec, names):
                 else "MCMC (highest-posterior draws; fitted noise scales), ordered by LOO-IC:"
             ),
             _records_table(
-                _named(rec["ranking_mcmc"], names, "model"),
+                _named(rec["ranking_posterior"], names, "model"),
                 EVIDENCE_COLS if nested else RANK_COLS,
             ),
         ]

@@ -54,6 +54,7 @@ import string
 from dataclasses import dataclass, field
 
 from fitdf._json import clean
+from fitdf.report.upgrade import upgrade
 
 __all__ = [
     "Said",
@@ -188,7 +189,9 @@ def claim(kind: str, results: dict, *, named: set | None = None, **subject) -> d
     the module docstring), or None when the rule says nothing.
 
     ``named``: the laws already named in full in this paragraph (updated with the ones this
-    claim names); None: none."""
+    claim names); None: none. ``results`` of an earlier schema is read as the current one
+    (:func:`fitdf.report.upgrade.upgrade`), so the paths are always the current ones."""
+    results = upgrade(results)
     r = RULES[kind]
     named = set() if named is None else named
     before = sorted(named)

@@ -81,9 +81,9 @@ LSQ = {
     "aicc": "blocks/*/ranking_lsq/*/aicc",
 }
 POSTERIOR = {
-    "post_models": "blocks/*/ranking_mcmc/*/model",
-    "log_evidence": "blocks/*/ranking_mcmc/*/log_evidence",
-    "looic": "blocks/*/ranking_mcmc/*/looic",
+    "post_models": "blocks/*/ranking_posterior/*/model",
+    "log_evidence": "blocks/*/ranking_posterior/*/log_evidence",
+    "looic": "blocks/*/ranking_posterior/*/looic",
 }
 
 
@@ -228,8 +228,8 @@ def _error(core, ohms, rms, df, models, aicc):
 
 # ------------------------------------------------------------------ what the data cannot tell
 _LOO = {
-    "elpd_diff": "blocks/*/ranking_mcmc/*/elpd_loo_diff",
-    "elpd_dse": "blocks/*/ranking_mcmc/*/elpd_loo_dse",
+    "elpd_diff": "blocks/*/ranking_posterior/*/elpd_loo_diff",
+    "elpd_dse": "blocks/*/ranking_posterior/*/elpd_loo_dse",
 }
 
 
@@ -330,7 +330,7 @@ def _ties(models, aicc, post_models, log_evidence, looic, elpd_diff, elpd_dse):
 
 
 # ------------------------------------------------------------------ posteriors and constants
-@rule("conclusion.chains", converged="blocks/*/fits_mcmc/*/diagnostics/converged")
+@rule("conclusion.chains", converged="blocks/*/fits_posterior/*/diagnostics/converged")
 def _chains(converged):
     fits = [(k, m, c) for k, laws in converged.items() for m, c in (laws or {}).items()]
     if not fits:

@@ -2,32 +2,41 @@
 the run's phases as planned before it starts; and the lines that open it.
 
 Expected seconds
-    :data:`_TABLE` holds every job of the committed report (``reports/results.json``,
-    ``timing.jobs_s``: the seconds each job took) as it ran there, on
-    :data:`COMMITTED_RUN`'s machine; a posterior job that sampled its prior's sensitivity
-    too is entered as one of the runs it sampled (:func:`table_text`). A job the table lacks --
-    another law, block or cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind on
-    its block (or direction), else of its kind. The report's progress display scales these by
-    what this machine measures as jobs finish (:mod:`fitdf.report.progress`). After the
-    committed report is regenerated, refresh the table and :data:`COMMITTED_RUN` with
-    :func:`table_text` (tests/test_progress.py says when they are out of date).
+    ``committed_costs.json`` (beside this module, read into :data:`COMMITTED`) holds every
+    job of the committed report as it ran there (``jobs_s``: the seconds each job took), on
+    its machine (``run``), with the settings that set what a job costs (``settings``); a
+    posterior job that sampled its prior's sensitivity too is entered as one of the runs it
+    sampled (:func:`cost_record`). A job the table lacks -- another law, block or
+    cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind
+    on its block (or direction), else of its kind. The report's progress display scales these
+    by what this machine measures as jobs finish (:mod:`fitdf.report.progress`).
+The file, and refreshing it
+    Every report run writes the same record of its own jobs into its folder as
+    ``costs.json`` (:func:`cost_record`). After the committed report is regenerated, the
+    package's copy is refreshed from it with ``python -m fitdf.report.refresh_costs reports``
+    (:mod:`fitdf.report.refresh_costs`); tests/test_progress.py says when it is out of date.
 Jobs not known yet
-    The second phase's jobs depend on the least-squares ranking (MCMC, cross-validation and
-    cross-impedance for each block's best laws): :func:`unknown_laws` plans ``n`` of them
+    The second phase's jobs depend on the least-squares ranking (posteriors, cross-validation
+    and cross-impedance for each block's best laws): :func:`unknown_laws` plans ``n`` of them
     with the committed report's jobs of that kind on that block.
 """
 
 from __future__ import annotations
 
+import json
 import statistics
+from pathlib import Path
 
 from fitdf.inference.evidence import SAMPLED_FACTORS
-from fitdf.plots.thesis import THESIS_GRAPHS
+from fitdf.plots.thesis_graphs import THESIS_GRAPHS
 from fitdf.report.progress import Phase, duration_text, schedule_length
+from fitdf.report.upgrade import upgrade
 
 __all__ = [
+    "COMMITTED",
     "COMMITTED_RUN",
     "COMMITTED_SETTINGS",
+    "COST_SETTINGS",
     "expected_seconds",
     "job_kind",
     "unknown_laws",
@@ -35,171 +44,37 @@ __all__ = [
     "phase_labels",
     "estimate",
     "rough",
-    "table_text",
+    "cost_record",
     "start_line",
 ]
 
-#: The committed report's run: where its job times were measured, and what it took in all.
-COMMITTED_RUN = {
-    "cpu": "Intel(R) Xeon(R) Processor",
-    "cores": 2,
-    "workers": 2,
-    "total_s": 4156,
-    "command": "fitdf report --full",
-}
+#: The package's copy of the committed report's ``costs.json`` (:func:`cost_record`).
+COMMITTED_FILE = Path(__file__).with_name("committed_costs.json")
 
-#: The committed report's settings that set its jobs' costs (another value: another cost).
-COMMITTED_SETTINGS = {
-    "n_starts": 6,
-    "n_steps": 300,
-    "max_steps": 4000,
-    "extend_steps": 6000,
-    "closed_form_step_factor": 3,
-    "n_walkers": None,
-    "cv_starts": None,
-    "chain": "voltage",
-    "approximate_chain": None,
-    "approximate_screen": 1,
-    "sampler": "nested",
-    "nested_live": 300,
-    "nested_networks": 1,
-    "nested_max_evaluations": 100000,
-}
+#: The settings that set what a job costs (another value: another cost).
+COST_SETTINGS = (
+    "n_starts",
+    "n_steps",
+    "max_steps",
+    "extend_steps",
+    "closed_form_step_factor",
+    "n_walkers",
+    "cv_starts",
+    "chain",
+    "approximate_chain",
+    "approximate_screen",
+    "sampler",
+    "nested_live",
+    "nested_networks",
+    "nested_max_evaluations",
+)
 
-#: Seconds of each job of the committed report, under its key joined by spaces
-#: (:func:`table_text` of its results.json).
-_TABLE = """
-deltamax-joint jiles_atherton            8.04
-B.5 jiles_atherton                       9.5
-permalloy-joint jiles_atherton           4.4
-B.4 jiles_atherton                       3.6
-deltamax-joint preisach                  16.01
-B.5 preisach                             14.28
-deltamax-joint cubic_hc                  23.33
-B.1 jiles_atherton                       2.28
-permalloy-joint preisach                 7.86
-B.3 jiles_atherton                       2.3
-B.4 preisach                             6.07
-B.2 jiles_atherton                       2.72
-B.5 cubic_hc                             22.84
-deltamax-joint rayleigh                  3.65
-permalloy-joint cubic_hc                 16.42
-B.4 cubic_hc                             15.52
-deltamax-joint constant_width            2.45
-B.5 rayleigh                             2.72
-B.1 preisach                             5.69
-B.3 preisach                             3
-permalloy-joint rayleigh                 1.9
-B.2 preisach                             7.13
-deltamax-joint frequency_hc              3.97
-B.5 constant_width                       2.47
-B.4 rayleigh                             1.67
-B.1 cubic_hc                             9.7
-permalloy-joint constant_width           1.41
-B.3 cubic_hc                             10.21
-B.5 frequency_hc                         3.2
-B.4 constant_width                       2.16
-B.2 cubic_hc                             8.37
-deltamax-joint proportional_width        3.67
-deltamax-joint proportional_width_fig42  4.96
-permalloy-joint frequency_hc             3.33
-B.4 frequency_hc                         2.1
-B.1 rayleigh                             0.76
-B.3 rayleigh                             1.02
-B.5 proportional_width                   2.71
-B.5 proportional_width_fig42             3.1
-B.2 rayleigh                             0.75
-B.1 constant_width                       0.81
-permalloy-joint proportional_width       2.67
-permalloy-joint proportional_width_fig42 2.67
-B.3 constant_width                       1.27
-B.4 proportional_width                   2.03
-B.4 proportional_width_fig42             3.09
-B.2 constant_width                       1.25
-B.1 frequency_hc                         1.38
-B.3 frequency_hc                         1.48
-B.2 frequency_hc                         1.75
-B.1 proportional_width                   1.77
-B.1 proportional_width_fig42             1.77
-B.3 proportional_width                   1.31
-B.3 proportional_width_fig42             1.92
-B.2 proportional_width                   1.52
-B.2 proportional_width_fig42             0.9
-limit                                    17.65
-nested permalloy-joint jiles_atherton    176.96
-nested B.4 jiles_atherton                135.24
-nested deltamax-joint preisach           452.71
-nested B.5 preisach                      287.12
-nested deltamax-joint cubic_hc           430.93
-nested B.1 jiles_atherton                101.61
-nested permalloy-joint preisach          341.19
-nested B.3 jiles_atherton                81.03
-nested B.4 preisach                      273.13
-nested B.2 jiles_atherton                92.95
-nested B.5 cubic_hc                      607.31
-nested deltamax-joint constant_width     101.75
-nested B.1 preisach                      192.95
-nested B.3 preisach                      165.42
-nested B.2 preisach                      167.93
-nested B.5 constant_width                65.42
-nested permalloy-joint constant_width    102.67
-nested B.4 constant_width                52.98
-nested B.2 cubic_hc                      113.37
-nested B.1 rayleigh                      39.12
-nested B.3 constant_width                34.12
-dynamic permalloy-joint jiles_atherton   11.28
-dynamic B.4 jiles_atherton               7.81
-dynamic deltamax-joint preisach          43.58
-dynamic B.5 preisach                     23.96
-dynamic deltamax-joint cubic_hc          24.75
-dynamic B.1 jiles_atherton               4.22
-dynamic permalloy-joint preisach         18.8
-dynamic B.3 jiles_atherton               3.81
-dynamic B.4 preisach                     12.11
-dynamic B.2 jiles_atherton               3.88
-dynamic B.5 cubic_hc                     12.63
-dynamic B.1 preisach                     7.75
-dynamic B.3 preisach                     5.45
-dynamic B.2 preisach                     5.14
-cv permalloy-joint jiles_atherton        3.94
-cv B.4 jiles_atherton                    2.41
-cv deltamax-joint preisach               12.83
-cv B.5 preisach                          9.38
-cv deltamax-joint cubic_hc               5.96
-cv B.1 jiles_atherton                    1.37
-cv permalloy-joint preisach              7.28
-cv B.3 jiles_atherton                    0.91
-cv B.4 preisach                          3.54
-cv B.2 jiles_atherton                    1.37
-cv B.5 cubic_hc                          4.79
-cv B.1 preisach                          4.75
-cv B.3 preisach                          1.38
-cv B.2 preisach                          1.94
-printed B.5 preisach                     12.29
-printed B.5 cubic_hc                     21.09
-printed deltamax-joint preisach          13.8
-printed deltamax-joint cubic_hc          26.06
-cross permalloy 0.0 600.0 preisach       9.52
-cross permalloy 0.0 600.0 jiles_atherton 4.53
-cross permalloy 600.0 0.0 preisach       7.63
-cross permalloy 600.0 0.0 jiles_atherton 4.68
-cross deltamax 0.0 600.0 preisach        13.7
-cross deltamax 0.0 600.0 jiles_atherton  8.95
-cross deltamax 600.0 0.0 preisach        12.64
-cross deltamax 600.0 0.0 cubic_hc        20.72
-block B.1                                6.78
-block B.3                                5.31
-block B.2                                6.27
-block B.5                                8.73
-block B.4                                7.53
-block permalloy-joint                    10.28
-block deltamax-joint                     12.22
-cross permalloy 0.0 600.0                1.24
-cross permalloy 600.0 0.0                1.23
-cross deltamax 0.0 600.0                 2.05
-cross deltamax 600.0 0.0                 1.79
-thesis                                   1.39
-"""
+#: The committed report's costs: ``{"run": ..., "settings": ..., "jobs_s": ...}``.
+COMMITTED = json.loads(COMMITTED_FILE.read_text(encoding="utf-8"))
+#: Where the committed report's job times were measured, and what it took in all.
+COMMITTED_RUN = COMMITTED["run"]
+#: The committed report's settings that set its jobs' costs (:data:`COST_SETTINGS`).
+COMMITTED_SETTINGS = COMMITTED["settings"]
 
 #: First words of the keys of the jobs that are not least-squares fits.
 _KINDS = (
@@ -228,7 +103,8 @@ def _words(key) -> tuple:
 
 
 def job_kind(key) -> str:
-    """The kind of a report job: ``lsq``, ``mcmc``, ``cv``, ``approx``, ``cross``, ``limit`` or
+    """The kind of a report job: ``lsq``, ``nested`` or ``mcmc`` (a posterior by nested sampling
+    or emcee), ``cv``, ``approx``, ``dynamic``, ``printed``, ``cross``, ``limit`` or
     ``figures`` (a block's, a cross-impedance direction's or the thesis graphs')."""
     w = _words(key)
     if w[0] in ("block", "thesis") or (w[0] == "cross" and len(w) == 4):
@@ -249,12 +125,8 @@ def _group(key) -> str:
     return ""
 
 
-def _parse(text: str) -> dict:
-    rows = (line.rsplit(None, 1) for line in text.strip().splitlines())
-    return {key.strip(): float(s) for key, s in rows}
-
-
-_SECONDS = _parse(_TABLE)
+#: Seconds of each job of the committed report, by its key joined by spaces.
+_SECONDS = {key: float(s) for key, s in COMMITTED["jobs_s"].items()}
 
 
 def _mean(kind: str, group: str) -> float:
@@ -303,7 +175,7 @@ def phase_labels(settings) -> tuple[str, str, str]:
     squares; then MCMC, cross-validation, the refits through the approximate chain,
     cross-impedance and limit cycles, as far as they run; then the figures.
 
-    ``settings``: a :class:`~fitdf.report.build.ReportSettings` or its record in
+    ``settings``: a :class:`~fitdf.report.settings.ReportSettings` or its record in
     ``results.json`` (``results["settings"]``).
     """
 
@@ -316,7 +188,7 @@ def phase_labels(settings) -> tuple[str, str, str]:
         for name, runs in (
             (
                 "nested sampling" if get("sampler") == "nested" else "MCMC",
-                "mcmc" in (get("methods") or ()) and get("mcmc_top") != 0,
+                "posterior" in (get("methods") or ()) and get("posterior_top") != 0,
             ),
             ("cross-validation", get("cv_top") != 0),
             (f"{approx} refits", bool(approx)),
@@ -348,7 +220,7 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
     Parameters
     ----------
     settings : ReportSettings
-        The run's settings (:class:`fitdf.report.build.ReportSettings`).
+        The run's settings (:class:`fitdf.report.settings.ReportSettings`).
     models, blocks : list of str
         The laws and the block keys fitted.
     lsq_keys : list of tuple
@@ -368,8 +240,8 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
     what : list of str
         What the run computes, for :func:`start_line`.
     """
-    sampled = [m for m in models if m not in settings.mcmc_skip]
-    n_mcmc = _top(settings.mcmc_top if "mcmc" in settings.methods else 0, len(sampled))
+    sampled = [m for m in models if m not in settings.posterior_skip]
+    n_sampled = _top(settings.posterior_top if "posterior" in settings.methods else 0, len(sampled))
     n_cv, n_cross = _top(settings.cv_top, len(models)), _top(settings.cross_top, len(models))
     dynamic = [m for m in models if m not in settings.dynamic_skip]
     n_dynamic = _top(settings.dynamic_top, len(dynamic)) if settings.dynamic_chain else 0
@@ -381,9 +253,9 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
         for b in blocks
         if settings.posterior_blocks in (None, ()) or b in settings.posterior_blocks
     ]
-    n_sens = min(settings.sensitivity_top, n_mcmc) if kind == "nested" else 0
+    n_sens = min(settings.sensitivity_top, n_sampled) if kind == "nested" else 0
     for b in blocks:
-        n_post = n_mcmc if b in posterior else 0
+        n_post = n_sampled if b in posterior else 0
         posteriors = unknown_laws(kind, b, n_post)
         # a posterior with the prior's sensitivity samples once more (the box doubled; the
         # halved box is restricted from its draws) in the same job
@@ -410,12 +282,12 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
         f"{_plural(len(lsq_keys), 'least-squares fit')} ({_plural(len(models), 'law')} on "
         f"{_plural(len(blocks), 'block')})"
     ]
-    if n_mcmc and posterior:
+    if n_sampled and posterior:
         what.append(
-            _plural(n_mcmc * len(posterior), "posterior")
+            _plural(n_sampled * len(posterior), "posterior")
             + (" and evidence (nested sampling)" if kind == "nested" else " (MCMC)")
             + (
-                f", {_plural(min(settings.sensitivity_top, n_mcmc) * len(posterior), 'evidence')}"
+                f", {_plural(min(settings.sensitivity_top, n_sampled) * len(posterior), 'evidence')}"
                 " again with the prior box halved and doubled"
                 if kind == "nested" and settings.sensitivity_top
                 else ""
@@ -443,13 +315,13 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
         what.append("the limit-cycle comparison (Tables 5.1, 5.2)")
     n_figures = (
         3 * len(blocks)  # DF fits, loci, residuals
-        + (len(posterior) if n_mcmc else 0)  # a corner plot of a converged posterior
+        + (len(posterior) if n_sampled else 0)  # a corner plot of a converged posterior
         + len(cross_figures)
         + len(THESIS_GRAPHS)
         + int(settings.limit_cycles)
         + 1  # the summary
     )
-    what.append(f"{'up to ' if n_mcmc and posterior else ''}{n_figures} figures")
+    what.append(f"{'up to ' if n_sampled and posterior else ''}{n_figures} figures")
     return phases, what
 
 
@@ -460,7 +332,7 @@ def estimate(phases, workers: int) -> float:
 
 def rough(settings) -> bool:
     """Whether ``settings`` change what a job costs from the committed report's."""
-    return any(getattr(settings, k) != v for k, v in COMMITTED_SETTINGS.items())
+    return any(getattr(settings, k) != COMMITTED_SETTINGS.get(k) for k in COST_SETTINGS)
 
 
 def _sampler_runs(results: dict, key: str) -> int:
@@ -469,27 +341,40 @@ def _sampler_runs(results: dict, key: str) -> int:
     w = key.split()
     if w[0] != "nested":
         return 1
-    fit = results["blocks"].get(w[1], {}).get("fits_mcmc", {}).get(" ".join(w[2:]), {})
+    fits = results["blocks"].get(w[1], {}).get("fits_posterior", {})
+    fit = fits.get(" ".join(w[2:]), {})
     boxes = ((fit.get("diagnostics") or {}).get("prior_sensitivity") or {}).get("boxes") or []
     return 1 + sum(b.get("estimate", "sampled") != "restricted" for b in boxes)
 
 
-def table_text(results: dict) -> str:
-    """The text of :data:`_TABLE` for a report's results record (``results.json``).
+def cost_record(results: dict, known: dict | None = None) -> dict:
+    """What a report's jobs cost, from its results record (``results.json``): the record
+    ``costs.json`` holds and :data:`COMMITTED` is.
 
-    A posterior job that also sampled its prior's box again (doubled, and halved where the
-    posterior's draws could not give it) is entered at its seconds over its runs (the plan
-    multiplies them back for such a job), so that the table holds one posterior's seconds in
-    every ``nested`` row.
+    ``run``: the CPU, its cores (``timing.cores``), the workers, the total seconds and the
+    command that made the report (``run.command``); a record written before one of these
+    fields existed takes it from ``known`` (a ``run`` record, such as :data:`COMMITTED_RUN`),
+    else None. ``settings``: those of
+    :data:`COST_SETTINGS`; ``jobs_s``: the seconds of each job (``timing.jobs_s``), a
+    posterior job that also sampled its prior's box again (doubled, and halved where the
+    posterior's draws could not give it) at its seconds over its runs (the plan multiplies
+    them back for such a job), so that every ``nested`` entry is one posterior's seconds.
     """
-    jobs = results["timing"]["jobs_s"]
-    width = max(map(len, jobs))
-    return (
-        "\n".join(
-            f"{k:<{width}} {round(s / _sampler_runs(results, k), 2):g}" for k, s in jobs.items()
-        )
-        + "\n"
-    )
+    results = upgrade(results)
+    timing = results["timing"]
+    jobs = timing["jobs_s"]
+    run = {
+        "cpu": timing["machine"]["cpu"],
+        "cores": timing.get("cores"),
+        "workers": timing["workers"],
+        "total_s": round(timing["total_s"]),
+        "command": (results.get("run") or {}).get("command"),
+    }
+    return {
+        "run": {k: (known or {}).get(k) if v is None else v for k, v in run.items()},
+        "settings": {k: results["settings"].get(k) for k in COST_SETTINGS},
+        "jobs_s": {k: round(s / _sampler_runs(results, k), 2) for k, s in jobs.items()},
+    }
 
 
 def start_line(what: list[str], estimate_s: float, workers: int, *, rough=False, cached=False):

@@ -19,6 +19,7 @@ from fitdf.inference.evidence import MISSED_BY_ERRORS
 from fitdf.inference.mcmc import MIN_ESS, MIN_STEPS_OVER_TAU, RHAT_MAX
 from fitdf.inference.nested import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.inference.small_signal import verdict
+from fitdf.report.audit_claims import audit_findings
 from fitdf.report.claims import paragraph, rule, say, span
 from fitdf.report.conclusion import LSQ, error_percent
 from fitdf.report.criteria import AICC_TIE, LOO_TIE_SE, best_by, best_law, known
@@ -30,9 +31,9 @@ _BLOCK = {
     "aicc": "blocks/{block}/ranking_lsq/*/aicc",
 }
 _BLOCK_POST = {
-    "post_models": "blocks/{block}/ranking_mcmc/*/model",
-    "log_evidence": "blocks/{block}/ranking_mcmc/*/log_evidence",
-    "looic": "blocks/{block}/ranking_mcmc/*/looic",
+    "post_models": "blocks/{block}/ranking_posterior/*/model",
+    "log_evidence": "blocks/{block}/ranking_posterior/*/log_evidence",
+    "looic": "blocks/{block}/ranking_posterior/*/looic",
 }
 
 
@@ -92,8 +93,8 @@ def _best(title, rms, n_params, df, models, aicc, block):
 
 
 _LOO_NUMBERS = {
-    "elpd_diff": "blocks/{block}/ranking_mcmc/*/elpd_loo_diff",
-    "elpd_dse": "blocks/{block}/ranking_mcmc/*/elpd_loo_dse",
+    "elpd_diff": "blocks/{block}/ranking_posterior/*/elpd_loo_diff",
+    "elpd_dse": "blocks/{block}/ranking_posterior/*/elpd_loo_dse",
 }
 
 
@@ -263,12 +264,12 @@ def _failures(tables, worst, inputs, leads):
     return say(template + ".", **values)
 
 
-_DIAGNOSTICS = "blocks/*/fits_mcmc/*/diagnostics/"
+_DIAGNOSTICS = "blocks/*/fits_posterior/*/diagnostics/"
 
 
 @rule(
     "findings.posteriors",
-    method="blocks/*/fits_mcmc/*/method",
+    method="blocks/*/fits_posterior/*/method",
     converged=_DIAGNOSTICS + "converged",
     evaluations=_DIAGNOSTICS + "n_likelihood_evaluations",
     evidence_error=_DIAGNOSTICS + "log_evidence_error",
@@ -495,29 +496,13 @@ def findings(results: dict, physics=()) -> list:
         if len(rec.get("tables") or []) > 1
     ]
     out += list(physics)
-    out += _audit_findings(results.get("audit", {}))
+    out += audit_findings(results)
     out.append(_limit_finding(results.get("limit_cycles", {})))
     return [p for p in out if p]
 
 
 # ------------------------------------------------------------------ not yet claims
-def _audit_findings(audit) -> list[str]:
-    if not audit.get("tables"):
-        return []
-    n_flag = sum(t["flagged"] for t in audit["tables"])
-    n_excl = sum(t["excluded_by_default"] for t in audit["tables"])
-    n_rows = sum(t["rows"] for t in audit["tables"])
-    return [
-        f"The audit of the printed tables flags {n_flag} of {n_rows} rows and excludes {n_excl} "
-        "by default (see the audit section for every row and reason)."
-    ] + [
-        f
-        for f in audit.get("findings", [])
-        if "footnote factor" in f and "followed by all" not in f
-    ]
-
-
 def _limit_finding(lc) -> str | None:
     """The limit-cycle comparison's own one-line finding (``attrs.statements.finding``, made
-    by :func:`fitdf.thesis.limit_cycle_statements` from the record's fields)."""
+    by :func:`fitdf.limit_cycle_tables.limit_cycle_statements` from the record's fields)."""
     return ((lc.get("attrs") or {}).get("statements") or {}).get("finding")

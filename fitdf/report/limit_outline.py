@@ -1,7 +1,7 @@
 """The report's limit-cycle section (Tables 5.1, 5.2), as document blocks (:mod:`fitdf.report.document`).
 
 Renders the ``limit_cycles`` record of :func:`fitdf.report.sections.limit_cycle_section`:
-the comparison's own sentences first (:func:`fitdf.thesis.limit_cycle_statements`, stored
+the comparison's own sentences first (:func:`fitdf.limit_cycle_tables.limit_cycle_statements`, stored
 in the record), then the figure, the unscaled prediction row by row, the agreement per
 setting and block, the scales (per block in-sample, held out, joint in-sample), the critical
 gains against the measured brackets, the trends, and the held-out rows.
@@ -48,7 +48,7 @@ def _intro(lc, res) -> str:
     return (
         "The thesis's analog-computer loop (Fig 5.12, plant "
         f"`{(lc.get('attrs') or {}).get('plant', '')}`) predicted by harmonic balance from the "
-        "fits of the matching Appendix B tables (`fitdf.thesis.thesis_limit_cycle_comparison`; "
+        "fits of the matching Appendix B tables (`fitdf.limit_cycle_tables.thesis_limit_cycle_comparison`; "
         f"per block the lowest-AICc law among {laws}) against the measured Tables 5.1 and 5.2. "
         "The thesis prints neither the computer's time scale nor what its system gain "
         "multiplies: *unscaled* takes both as 1 and fits nothing to the tables; *held out* "

@@ -32,6 +32,7 @@ from fitdf.report.limit_outline import LIMIT as _LIMIT
 from fitdf.report.limit_outline import limit_blocks as _limit_blocks
 from fitdf.report.overview import regenerate_claims
 from fitdf.report.physics_outline import PHYSICS, physics_blocks
+from fitdf.report.upgrade import upgrade
 from fitdf.report.words import report_words
 
 __all__ = ["build_document", "nav_links"]
@@ -83,14 +84,15 @@ def _settings_text(res, words=None) -> list:
     ``report.regenerate`` claim of ``words``, :func:`~fitdf.report.words.report_words`)."""
     regenerate = (words or {}).get("claims", {}).get("regenerate") or regenerate_claims(res)
     s, t = res["settings"], res["timing"]
-    mcmc = (
+    sampled = "posterior" in s["methods"] and s["posterior_top"] != 0
+    posteriors = (
         "MCMC (emcee: a discarded pilot, then independent chains) for the best {top} "
         "least-squares models of each block{skip}: {w} walkers in the pilot, at least {n} "
         "production steps, extended until converged up to {mx}{ext}{cf}".format(
-            top="all" if s["mcmc_top"] is None else s["mcmc_top"],
+            top="all" if s["posterior_top"] is None else s["posterior_top"],
             skip=(
-                " (not sampled: " + ", ".join(f"`{m}`" for m in s["mcmc_skip"]) + ")"
-                if s.get("mcmc_skip")
+                " (not sampled: " + ", ".join(f"`{m}`" for m in s["posterior_skip"]) + ")"
+                if s.get("posterior_skip")
                 else ""
             ),
             w="2 d + 2 (d sampled dimensions)" if s["n_walkers"] is None else s["n_walkers"],
@@ -108,12 +110,12 @@ def _settings_text(res, words=None) -> list:
                 else ""
             ),
         )
-        if "mcmc" in s["methods"] and s["mcmc_top"] != 0
+        if sampled
         else "no posterior sampling"
     )
-    if s.get("sampler") == "nested" and "mcmc" in s["methods"] and s["mcmc_top"] != 0:
+    if s.get("sampler") == "nested" and sampled:
         where = s.get("posterior_blocks")
-        mcmc = (
+        posteriors = (
             "posteriors and their Bayesian evidence by nested sampling (nautilus, {live} live "
             "points, {nets} per bound, up to {mx:,} likelihood evaluations; converged at {eff} effective draws and "
             "an evidence error of at most {err}) for the best {top} least-squares models of "
@@ -123,7 +125,7 @@ def _settings_text(res, words=None) -> list:
                 mx=s["nested_max_evaluations"],
                 eff=MIN_EFFECTIVE,
                 err=MAX_LOG_EVIDENCE_ERROR,
-                top="all" if s["mcmc_top"] is None else s["mcmc_top"],
+                top="all" if s["posterior_top"] is None else s["posterior_top"],
                 where="each block" if not where else ", ".join(where),
                 sens=(
                     f"; the evidence again with the prior box halved and doubled for the best "
@@ -163,7 +165,7 @@ def _settings_text(res, words=None) -> list:
                 ),
                 f"least squares with {s['n_starts']} starts for every model and block"
                 + _more_starts(res.get("models", []), s["n_starts"])
-                + f"; {mcmc}; {cv}",
+                + f"; {posteriors}; {cv}",
                 _run_time_text(s, t),
                 _machine_text(t.get("machine")),
                 text(regenerate),
@@ -177,7 +179,7 @@ def _run_time_text(settings: dict, t: dict) -> str:
     labels = phase_labels(settings)
     seconds = [
         t.get("least_squares_s", 0),
-        t.get("mcmc_cv_cross_limit_s", 0),
+        t.get("second_phase_s", 0),
         t.get("figures_s", 0),
     ]
     phases = "; ".join(
@@ -369,7 +371,9 @@ def _audit_blocks(res):
 def _thesis_blocks(res):
     out = [
         H(2, _THESIS),
-        P("Redrawn from fitdf's models with the thesis's k = 1, c = 5 (`fitdf.plots.thesis`)."),
+        P(
+            "Redrawn from fitdf's models with the thesis's k = 1, c = 5 (`fitdf.plots.thesis_graphs`)."
+        ),
     ]
     for g in res["thesis_graphs"]:
         out += [P(f"**Graph {g['graph']}** -- {g['title']}"), IMG(g["path"], f"Graph {g['graph']}")]
@@ -428,7 +432,9 @@ def nav_links(res: dict) -> list[tuple[str, str]]:
 
 
 def build_document(res: dict) -> list:
-    """The report as a list of blocks (see the module docstring)."""
+    """The report as a list of blocks (see the module docstring); ``res`` of an earlier
+    schema is read as the current one (:func:`fitdf.report.upgrade.upgrade`)."""
+    res = upgrade(res)
     blocks = [res["blocks"][k] for k in res["blocks"]]
     toc = ["[Findings](#findings)", "[Summary](#summary)"]
     toc += [f"[{b['title']}](#{slug(b['title'])})" for b in blocks]
@@ -459,7 +465,7 @@ def build_document(res: dict) -> list:
             "least-squares fits (every law)"
             + (
                 ", the Bayesian evidence and LOO-IC of the posteriors (the laws sampled)."
-                if any(b["ranking_mcmc"] for b in blocks)
+                if any(b["ranking_posterior"] for b in blocks)
                 else "; no posterior was sampled."
             )
         ),

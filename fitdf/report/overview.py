@@ -27,7 +27,7 @@ REPRODUCED = {"rms_percent": 0.2, "aicc": 2.0}
 @rule(
     "report.intro",
     chain="settings/chain",
-    method="blocks/*/fits_mcmc/*/method",
+    method="blocks/*/fits_posterior/*/method",
     cross="cross_impedance/*/rows",
     limit_rows="limit_cycles/rows",
     command="run/command",
@@ -94,9 +94,9 @@ def _regenerate(command, seed):
     models="blocks/{block}/ranking_lsq/*/model",
     aicc="blocks/{block}/ranking_lsq/*/aicc",
     rms="blocks/{block}/ranking_lsq/*/rms_complex",
-    post_models="blocks/{block}/ranking_mcmc/*/model",
-    log_evidence="blocks/{block}/ranking_mcmc/*/log_evidence",
-    looic="blocks/{block}/ranking_mcmc/*/looic",
+    post_models="blocks/{block}/ranking_posterior/*/model",
+    log_evidence="blocks/{block}/ranking_posterior/*/log_evidence",
+    looic="blocks/{block}/ranking_posterior/*/looic",
 )
 def _summary(title, models, aicc, rms, post_models, log_evidence, looic, block):
     """A block's row of the summary: each criterion's best law, by its own numbers."""

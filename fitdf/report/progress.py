@@ -30,12 +30,16 @@ A fake ``clock`` and ``enabled=False`` give the numbers without a bar or a threa
 from __future__ import annotations
 
 import heapq
+import shutil
 import sys
+import textwrap
 import threading
 import time
 from dataclasses import dataclass
 
 from tqdm import tqdm
+
+from fitdf._text import TEXT_WIDTH
 
 __all__ = ["Phase", "RunProgress", "schedule_length", "duration_text"]
 
@@ -100,6 +104,11 @@ def duration_text(seconds: float) -> str:
     return f"{h} h {m:02d} min"
 
 
+#: The bar's format, and its text before the display's own (``left``) at 100 %.
+_BAR_FORMAT = "{percentage:3.0f}%|{bar:16}| {left}"
+_BAR_HEAD = "100%|" + 16 * " " + "| "
+
+
 class _Bar(tqdm):
     """A tqdm bar with one more field for its format: ``{left}``, the display's own text."""
 
@@ -134,6 +143,9 @@ class RunProgress:
     reference : str
         What the expected seconds are the times of, for the display before a job has finished
         (``"at the committed machine's speed"``).
+    width : int, optional
+        The widest line, bar included (default: 100 columns, or the terminal's width if
+        narrower): a longer bar would wrap, and each redraw would leave a line behind.
     """
 
     def __init__(
@@ -148,6 +160,7 @@ class RunProgress:
         clock=time.monotonic,
         refresh_s: float = 1.0,
         reference: str = "at the reference machine's speed",
+        width: int | None = None,
     ):
         self.phases = list(phases)
         self.expected = expected
@@ -155,6 +168,7 @@ class RunProgress:
         self.workers = max(1, int(workers))
         self.clock = clock
         self.reference = reference
+        self.width = width or min(TEXT_WIDTH, shutil.get_terminal_size().columns)
         self.index = -1  # the phase running
         self._jobs = {}  # key -> (kind, expected seconds) of the phase running, in order
         self._waiting = {}  # keys of the phase running not started yet (ordered)
@@ -321,8 +335,11 @@ class RunProgress:
         elapsed = self.clock() - self._start
         left = (
             f"{tqdm.format_interval(elapsed)} elapsed, about {duration_text(self.remaining())} "
-            f"left | {self.label()} | {self.basis()}"
+            f"left | {self.label()}"
         )
+        # the basis of the estimate when the line has room (each phase's last line says it)
+        if len(_BAR_HEAD) + len(left) + 3 + len(self.basis()) < self.width:
+            left += f" | {self.basis()}"
         n = round(1000 * self.fraction_done())
         if self._bar is None:
             self._bar = _Bar(
@@ -330,8 +347,9 @@ class RunProgress:
                 initial=n,
                 file=self._file,
                 leave=True,
-                bar_format="{percentage:3.0f}%|{bar:16}| {left}",
+                bar_format=_BAR_FORMAT,
                 left=left,
+                ncols=self.width - 1,  # (tqdm cuts a longer line: it never wraps)
             )
             return
         self._bar.n, self._bar.left = n, left
@@ -343,13 +361,14 @@ class RunProgress:
             return
         took = duration_text(self.clock() - self._phase_start)
         later = self.phases[self.index + 1 :]
-        self._bar.write(
+        text = (
             f"{self.label()} done in {took}; the rest: about "
             f"{duration_text(self.remaining())} ({self.basis()})"
             if later
-            else f"{self.label()} done in {took}",
-            file=self._file,
+            else f"{self.label()} done in {took}"
         )
+        lines = textwrap.wrap(text, self.width - 1, subsequent_indent="  ")
+        self._bar.write("\n".join(lines), file=self._file)
 
     def _tick(self, every: float) -> None:
         while not self._stop.wait(every):

@@ -12,12 +12,14 @@ paragraphs, lists, tables, images, collapsible details) built by
   a navigation bar to the main sections (:func:`fitdf.report.outline.nav_links`) stays
   at the top of the window (CSS ``position: sticky``).
 
-Re-render an existing report without refitting::
+Re-render an existing report without refitting (a ``results.json`` of an earlier schema is
+read as the current one, :mod:`fitdf.report.upgrade`)::
 
-    import json, pathlib
+    import pathlib
     from fitdf.report.render import render_html
+    from fitdf.report.upgrade import read_results
     out = pathlib.Path("reports")
-    html = render_html(json.loads((out / "results.json").read_text()), out)
+    html = render_html(read_results(out), out)
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from pathlib import Path
 
 from fitdf.report.document import fmt, slug
 from fitdf.report.outline import build_document, nav_links
+from fitdf.report.upgrade import upgrade
 
 __all__ = ["build_document", "render_markdown", "render_html", "slug", "fmt"]
 
@@ -147,6 +150,7 @@ def _nav(res: dict) -> str:
 
 def render_html(res: dict, root) -> str:
     """index.html text: self-contained, figures read from ``root / 'figures/...'`` and embedded."""
+    res = upgrade(res)
     body = "\n".join([_nav(res), *_html(build_document(res), Path(root), {})])
     return (
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'

@@ -23,6 +23,7 @@ from fitdf.inference.problem import FitProblem
 from fitdf.inference.ranking import ranking_table
 from fitdf.inference.selection import best_result, select
 from fitdf.inference.small_signal import small_signal_scan, verdict
+from fitdf.limit_cycle_tables import thesis_limit_cycle_comparison
 from fitdf.models import get_model
 from fitdf.plots import (
     plot_corner,
@@ -34,8 +35,7 @@ from fitdf.plots import (
 )
 from fitdf.plots.limit_cycles import plot_thesis_comparison
 from fitdf.plots.summary import plot_summary
-from fitdf.plots.thesis import THESIS_GRAPHS
-from fitdf.thesis import thesis_limit_cycle_comparison
+from fitdf.plots.thesis_graphs import THESIS_GRAPHS
 
 __all__ = [
     "block_record",
@@ -49,25 +49,8 @@ __all__ = [
     "limit_cycles_switched_off",
     "model_descriptions",
     "aicc_winners",
-    "expected_cost",
     "clean",
 ]
-
-
-_ROWS = {"B.1": 37, "B.2": 30, "B.3": 36, "B.4": 63, "B.5": 89, "permalloy": 73, "deltamax": 119}
-_MODEL_COST = {
-    "jiles_atherton": 12.0,
-    "preisach": 6.0,
-    "cubic_hc": 4.0,
-    "rayleigh": 2.5,
-    "constant_width": 2.0,
-    "frequency_hc": 1.5,
-}
-
-
-def expected_cost(data: str, model: str) -> float:
-    """Rough relative cost of a least-squares fit (only orders the jobs)."""
-    return _ROWS.get(data, 50) * _MODEL_COST.get(model, 1.0)
 
 
 def aicc_winners(lsq: dict, models, keys) -> list[str]:
@@ -305,10 +288,12 @@ def _where_models_fail(lsq_ranked, n=5) -> dict:
 
 
 def block_record(
-    block, lsq_ranked, mcmc_by_model, cv_by_model, figures, chain_comparison=None
+    block, lsq_ranked, posterior_by_model, cv_by_model, figures, chain_comparison=None
 ) -> dict:
-    """Everything the report shows about one block (JSON-ready)."""
-    mcmc_ranked = [mcmc_by_model[r.model] for r in lsq_ranked if r.model in mcmc_by_model]
+    """Everything the report shows about one block (JSON-ready). The posteriors, by either
+    sampler, are ``fits_posterior`` (each with its ``method``) and ranked in
+    ``ranking_posterior``."""
+    posteriors = [posterior_by_model[r.model] for r in lsq_ranked if r.model in posterior_by_model]
     d = lsq_ranked[0].problem.data
     rec = {
         "key": block.key,
@@ -319,20 +304,20 @@ def block_record(
         "source_impedance_ohm": sorted(set(d.source_impedance.tolist())),
         "data_summary": _data_summary(block, lsq_ranked[0]),
         "ranking_lsq": _ranking(lsq_ranked, cv_by_model),
-        "ranking_mcmc": _ranking(mcmc_ranked, rank_by=_posterior_rank(mcmc_ranked))
-        if mcmc_ranked
+        "ranking_posterior": _ranking(posteriors, rank_by=_posterior_rank(posteriors))
+        if posteriors
         else [],
         "fits_lsq": {r.model: fit_record(r) for r in lsq_ranked},
-        "fits_mcmc": {r.model: fit_record(r) for r in mcmc_ranked},
+        "fits_posterior": {r.model: fit_record(r) for r in posteriors},
         "cv": {m: {k: v for k, v in c.items()} for m, c in cv_by_model.items()},
         "where_models_fail": _where_models_fail(lsq_ranked),
         "figures": figures,
         "chain_comparison": chain_comparison,
     }
     rec["order_lsq"] = [row["model"] for row in rec["ranking_lsq"]]
-    rec["order_mcmc"] = [row["model"] for row in rec["ranking_mcmc"]]
+    rec["order_posterior"] = [row["model"] for row in rec["ranking_posterior"]]
     # the best law, its ties, and what cross-validation, the evidence and LOO pick
-    rec["selection"] = select(rec["ranking_lsq"] + rec["ranking_mcmc"]).to_dict()
+    rec["selection"] = select(rec["ranking_lsq"] + rec["ranking_posterior"]).to_dict()
     return clean(rec)
 
 
@@ -464,11 +449,11 @@ def cross_record(directions, cross: dict, figures: dict) -> list[dict]:
 
 
 # ------------------------------------------------------------------ figures (run in workers)
-def block_payload(block, lsq_ranked, mcmc_ranked, settings) -> dict:
+def block_payload(block, lsq_ranked, posteriors, settings) -> dict:
     return {
         "block": block,
         "lsq": lsq_ranked,
-        "mcmc": mcmc_ranked,
+        "posteriors": posteriors,
         "plot_top": settings.plot_top,
         "excluded": _excluded_rows(block.data),
     }
@@ -505,12 +490,12 @@ def make_figures(kind: str, payload, figdir: Path):
             payload["train"], resolve_data(test_key), calibration_gains=payload["gains"]
         )
         return _save(fig, figdir, f"cross_{core}_{train:g}_to_{test:g}.png")
-    b, lsq, mcmc = payload["block"], payload["lsq"], payload["mcmc"]
+    b, lsq, post = payload["block"], payload["lsq"], payload["posteriors"]
     slug = _slug(b.key)
     # only a converged posterior is drawn as a result (its band and its corner plot)
     best_post = (
-        mcmc[0]
-        if mcmc and mcmc[0].model == lsq[0].model and mcmc[0].diagnostics.get("converged")
+        post[0]
+        if post and post[0].model == lsq[0].model and post[0].diagnostics.get("converged")
         else None
     )
     out = {
@@ -554,7 +539,7 @@ def limit_cycles_switched_off() -> dict:
 
 
 def limit_cycle_section(seed, models, n_starts, candidates, figdir) -> dict:
-    """Tables 5.1/5.2 against the limit cycles predicted from the fits (:mod:`fitdf.thesis`):
+    """Tables 5.1/5.2 against the limit cycles predicted from the fits (:mod:`fitdf.limit_cycle_tables`):
     unscaled and with held-out scales, by harmonic balance and simulated in time.
 
     ``models`` are the lowest-AICc models of the blocks B.1, B.3, B.2, B.5; the

@@ -16,6 +16,7 @@ from fitdf.inference.matched_flux import matched_flux
 from fitdf.plots.permeability import plot_matched_flux
 
 __all__ = [
+    "supermalloy_fits",
     "supermalloy_record",
     "supermalloy_sentences",
     "sentence_fields",
@@ -42,6 +43,18 @@ RISE_WORDS = {
 }
 #: File name of the figure under the report's figure folder.
 FIGURE = "supermalloy_matched_flux.png"
+
+
+def supermalloy_fits(lsq, ranked, dynamic) -> tuple:
+    """The fits the matched-flux comparison reads: Table B.4's best law that was refitted with rate-dependent losses: ``(static, dynamic)``
+    fits (``(None, None)`` when B.4 was not fitted). ``lsq``: ``{(block, law): FitResult}``;
+    ``ranked``: each block's laws by the least-squares ranking; ``dynamic``: ``{(block, law):
+    (FitResult, cv, static cv)}`` of the refits with rate-dependent losses."""
+    laws = [m for m in ranked.get("B.4", []) if ("B.4", m) in dynamic]
+    if not laws:
+        best = ranked.get("B.4", [None])[0]
+        return (lsq.get(("B.4", best)), None) if best else (None, None)
+    return lsq[("B.4", laws[0])], dynamic[("B.4", laws[0])][0]
 
 
 def supermalloy_record(static, dynamic) -> dict | None:

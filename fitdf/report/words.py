@@ -14,6 +14,7 @@ from fitdf.report.conclusion import conclusion_claims
 from fitdf.report.findings import findings
 from fitdf.report.overview import intro_claims, regenerate_claims, summary_claims
 from fitdf.report.physics_claims import physics_claims, physics_findings
+from fitdf.report.upgrade import upgrade
 
 __all__ = ["report_words", "every_claim", "sentence"]
 
@@ -29,7 +30,9 @@ def report_words(results: dict) -> dict:
     ``claims``: ``intro``, ``regenerate`` and ``conclusion`` (one paragraph each),
     ``findings`` (the statements made of claims, one paragraph each), ``summary`` (one claim
     per block), ``physics`` (:func:`fitdf.report.physics_claims.physics_claims`).
-    ``findings``: every statement of the Findings list, in order, as its words."""
+    ``findings``: every statement of the Findings list, in order, as its words. A record of
+    an earlier schema is read as the current one (:func:`fitdf.report.upgrade.upgrade`)."""
+    results = upgrade(results)
     statements = findings(results, physics_findings(results))
     return {
         "claims": {

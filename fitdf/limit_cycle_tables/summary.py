@@ -1,6 +1,6 @@
 """What the rows of the Tables 5.1/5.2 comparison say, summarised per setting and block.
 
-Every function reads the long frame of :func:`fitdf.thesis.thesis_limit_cycle_comparison`
+Every function reads the long frame of :func:`fitdf.limit_cycle_tables.thesis_limit_cycle_comparison`
 (one row per table row and *setting*: ``unscaled``, ``held_out``, optionally ``given``)
 and returns plain dicts, the record the report and its sentences are made from.
 

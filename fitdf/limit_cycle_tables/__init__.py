@@ -6,23 +6,23 @@ the limit cycles seen at each system gain. :func:`thesis_limit_cycle_comparison`
 by harmonic balance from the fits of the matching Appendix B tables -- first unscaled (the
 plant and the system gain as printed), then with the computer's unprinted time and gain
 scalings fitted to three blocks of the tables and judged on the fourth
-(:mod:`fitdf.thesis.scales`) -- and optionally simulates the loop in time with the same
-fitted cores. :mod:`fitdf.thesis.summary` condenses the rows per block (levels, trends,
+(:mod:`fitdf.limit_cycle_tables.scales`) -- and optionally simulates the loop in time with the same
+fitted cores. :mod:`fitdf.limit_cycle_tables.summary` condenses the rows per block (levels, trends,
 critical gains); :func:`limit_cycle_statements` says in sentences, from those fields, what the
 tables confirm and what they do not.
 """
 
 from __future__ import annotations
 
-from fitdf.thesis.comparison import thesis_limit_cycle_comparison
-from fitdf.thesis.scales import (
+from fitdf.limit_cycle_tables.comparison import thesis_limit_cycle_comparison
+from fitdf.limit_cycle_tables.scales import (
     THESIS_BLOCKS,
     THESIS_PLANT,
     estimate_thesis_scales,
     held_out_scales,
     per_block_scales,
 )
-from fitdf.thesis.statements import limit_cycle_statements
+from fitdf.limit_cycle_tables.statements import limit_cycle_statements
 
 __all__ = [
     "thesis_limit_cycle_comparison",

@@ -3,7 +3,7 @@
 :func:`thesis_limit_cycle_comparison` predicts every row of the analog-computer tables by
 harmonic balance (:mod:`fitdf.loop.harmonic`) with the fitted core of the matching Appendix B
 table, in *settings* that differ only in the computer's unprinted scalings
-(:mod:`fitdf.thesis.scales`):
+(:mod:`fitdf.limit_cycle_tables.scales`):
 
 ``unscaled``
     ``alpha = beta = 1``: the plant as printed, the system gain as the loop gain. Nothing is
@@ -29,19 +29,19 @@ from fitdf._json import clean
 from fitdf.data import datasets
 from fitdf.inference.api import fit
 from fitdf.inference.ranking import best_by_aicc
-from fitdf.loop.elements import CoreElement
-from fitdf.loop.harmonic import limit_cycles
-from fitdf.loop.simulate import simulate_loop
-from fitdf.models import model_names
-from fitdf.thesis import summary
-from fitdf.thesis.scales import (
+from fitdf.limit_cycle_tables import summary
+from fitdf.limit_cycle_tables.scales import (
     THESIS_BLOCKS,
     THESIS_PLANT,
     estimate_thesis_scales,
     held_out_scales,
     per_block_scales,
 )
-from fitdf.thesis.statements import limit_cycle_statements
+from fitdf.limit_cycle_tables.statements import limit_cycle_statements
+from fitdf.loop.elements import CoreElement
+from fitdf.loop.harmonic import limit_cycles
+from fitdf.loop.simulate import simulate_loop
+from fitdf.models import model_names
 
 __all__ = [
     "thesis_limit_cycle_comparison",
@@ -180,7 +180,7 @@ def thesis_limit_cycle_comparison(
     """Predict the analog-computer limit cycles of Tables 5.1/5.2 from the Appendix B fits.
 
     Each (core, source impedance) block is predicted from the table measured on that core at
-    that impedance (:data:`~fitdf.thesis.THESIS_BLOCKS`: Permalloy B.1 / B.3, Deltamax B.2 /
+    that impedance (:data:`~fitdf.limit_cycle_tables.THESIS_BLOCKS`: Permalloy B.1 / B.3, Deltamax B.2 /
     B.5), with the lowest-AICc model among ``models`` (all registered models when None; a
     list compares per block, a single name forces it), fitted by least squares through the
     default (exact ``voltage``) chain with ``seed`` and ``n_starts``. Fits made already can be
@@ -201,7 +201,7 @@ def thesis_limit_cycle_comparison(
 
     Each row is predicted in every *setting* of the scales: ``unscaled`` (``alpha = beta =
     1``, nothing fitted to Tables 5.1/5.2), ``held_out`` (per block, the scales
-    :func:`~fitdf.thesis.estimate_thesis_scales` fits on the other three blocks) and, when
+    :func:`~fitdf.limit_cycle_tables.estimate_thesis_scales` fits on the other three blocks) and, when
     ``time_scale`` or ``gain_scale`` is given, ``given`` (the one not given is 1).
 
     Parameters
@@ -236,8 +236,8 @@ def thesis_limit_cycle_comparison(
         ``fitted_on``), ``joint`` (one pair on all rows, in-sample), ``spread`` (the range
         of the per-block values) and ``given``; ``agreement``, ``trends``,
         ``impedance_order``, ``critical_gains``, ``dies_out_rows`` and ``time_domain``
-        (:mod:`fitdf.thesis.summary`, each per setting); ``statements`` (the sentences of
-        :func:`~fitdf.thesis.limit_cycle_statements`, made from those fields); ``fits``.
+        (:mod:`fitdf.limit_cycle_tables.summary`, each per setting); ``statements`` (the sentences of
+        :func:`~fitdf.limit_cycle_tables.limit_cycle_statements`, made from those fields); ``fits``.
     """
     table = _load_tables()
     fits = {

@@ -1,9 +1,9 @@
 """The sentences of the Tables 5.1/5.2 comparison, each made from named fields of its record.
 
 :func:`limit_cycle_statements` reads the ``attrs`` of
-:func:`fitdf.thesis.thesis_limit_cycle_comparison` (as written to the report's
+:func:`fitdf.limit_cycle_tables.thesis_limit_cycle_comparison` (as written to the report's
 ``results.json``: NaN as None) and nothing else, so a sentence can always be recomputed from
-the record it stands in. The verdicts follow the rules of :mod:`fitdf.thesis.summary`; a
+the record it stands in. The verdicts follow the rules of :mod:`fitdf.limit_cycle_tables.summary`; a
 check is *confirmed* when it holds in every block (or every pair of rows) it applies to.
 """
 
@@ -291,7 +291,7 @@ def limit_cycle_statements(attrs: dict) -> dict:
     Parameters
     ----------
     attrs : dict
-        ``DataFrame.attrs`` of :func:`~fitdf.thesis.thesis_limit_cycle_comparison` (or the
+        ``DataFrame.attrs`` of :func:`~fitdf.limit_cycle_tables.thesis_limit_cycle_comparison` (or the
         ``attrs`` of the report's ``limit_cycles`` record): ``agreement``, ``scales``,
         ``trends``, ``impedance_order``, ``critical_gains``, ``dies_out_rows``,
         ``time_domain``.
