@@ -340,6 +340,50 @@ def _pooled(pool, last):
     return np.concatenate(pool) if pool else last
 
 
+def _pilot(logpost, start, pilot_steps, max_pilot_rounds, random_state, rng, progress) -> dict:
+    """The pilot (:func:`fit_mcmc`; discarded): differential evolution from the walkers
+    ``start``, then rounds of the moves adapted to the previous round's second half (a better
+    estimate of the posterior's shape: they mix several times faster than DE), until a
+    round's draws have the previous round's shape (:data:`SETTLED_SHAPE_CHANGE`) and its
+    moves accept (:data:`SETTLED_ACCEPTANCE`), or ``max_pilot_rounds``: walkers started at
+    the least-squares optimum may still be spreading along a ridge, or moving to where the
+    fitted noise puts the mass. One random stream (``random_state``, emcee's) runs through
+    every round. Returns the walkers' last positions ``start``, the stream's
+    ``random_state``, each round's shape change and acceptance (``rounds``), the last
+    round's second half (``draws``, None without a pilot) and the adapted rounds' draws
+    (``pool``).
+    """
+    ndim, logit = logpost.ndim, logpost.box is not None
+    out = {"start": start, "random_state": random_state, "rounds": [], "draws": None, "pool": []}
+    if pilot_steps <= 0:
+        return out
+    round_moves, previous, pool = default_moves(), None, out["pool"]
+    for k in range(1 + max(int(max_pilot_rounds), 1)):
+        pilot = emcee.EnsembleSampler(len(start), ndim, logpost, vectorize=True, moves=round_moves)
+        # emcee's wrapper of the log-probability prints a traceback for any exception,
+        # Ctrl-C and SIGTERM included (the command line stops with one line); it only
+        # adds args we don't use
+        pilot.log_prob_fn = logpost
+        pilot.random_state = random_state
+        start = pilot.run_mcmc(
+            start, pilot_steps, progress=progress, skip_initial_state_check=True
+        ).coords
+        random_state = pilot.random_state
+        draws = pilot.get_chain(discard=pilot_steps // 2, flat=True)
+        change = np.inf if previous is None else _shape_change(previous, draws)
+        acceptance = float(np.mean(pilot.acceptance_fraction))
+        out["rounds"].append({"shape_change": change, "acceptance": acceptance})
+        settled = change <= SETTLED_SHAPE_CHANGE and acceptance >= SETTLED_ACCEPTANCE
+        if k >= MIN_ADAPTED_ROUNDS and settled:
+            break
+        previous = draws
+        if k >= 1:  # the adapted rounds' draws, pooled: a lobe visited once stays covered
+            pool.append(draws)
+        round_moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
+    out.update(start=start, random_state=random_state, draws=draws)
+    return out
+
+
 def fit_mcmc(
     problem: FitProblem,
     lsq: FitResult,
@@ -395,44 +439,14 @@ def fit_mcmc(
     p0 = _initial_ball(problem, lsq, n_walkers, rng, np.vstack([logpost.bounds[:P], NOISE_BOUNDS]))
     start = logpost.to_sampler(p0[:, :ndim])
     random_state = np.random.RandomState(seed).get_state()
-    pilot, pilot_rounds, pool = None, [], []
-    if pilot_steps > 0:
-        # differential evolution from the ball, then rounds of the moves adapted to the
-        # previous round's second half (a better estimate of the posterior's shape: they mix
-        # several times faster than DE), until a round's draws have the previous round's
-        # shape (SETTLED_SHAPE_CHANGE) and its moves accept (SETTLED_ACCEPTANCE), or
-        # ``max_pilot_rounds``: walkers started at the least-squares optimum may still be
-        # spreading along a ridge, or moving to where the fitted noise puts the mass
-        round_moves, previous = default_moves(), None
-        for k in range(1 + max(int(max_pilot_rounds), 1)):
-            pilot = emcee.EnsembleSampler(
-                n_walkers, ndim, logpost, vectorize=True, moves=round_moves
-            )
-            # emcee's wrapper of the log-probability prints a traceback for any exception,
-            # Ctrl-C and SIGTERM included (the command line stops with one line); it only
-            # adds args we don't use
-            pilot.log_prob_fn = logpost
-            pilot.random_state = random_state  # one random stream through every stage
-            start = pilot.run_mcmc(
-                start, pilot_steps, progress=progress, skip_initial_state_check=True
-            ).coords
-            random_state = pilot.random_state
-            draws = pilot.get_chain(discard=pilot_steps // 2, flat=True)
-            change = np.inf if previous is None else _shape_change(previous, draws)
-            acceptance = float(np.mean(pilot.acceptance_fraction))
-            pilot_rounds.append({"shape_change": change, "acceptance": acceptance})
-            settled = change <= SETTLED_SHAPE_CHANGE and acceptance >= SETTLED_ACCEPTANCE
-            if k >= MIN_ADAPTED_ROUNDS and settled:
-                break
-            previous = draws
-            if k >= 1:  # the adapted rounds' draws, pooled: a lobe visited once stays covered
-                pool.append(draws)
-            round_moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
-    adapted = moves is None and pilot is not None
+    pilot = _pilot(logpost, start, pilot_steps, max_pilot_rounds, random_state, rng, progress)
+    start, random_state, pilot_rounds = pilot["start"], pilot["random_state"], pilot["rounds"]
+    adapted = moves is None and pilot["draws"] is not None
     free = []  # the coordinates the prior-coordinate move draws (names)
     if adapted:
         # independent chains: few and long (R-hat needs each chain long, not many of them)
-        moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
+        draws = pilot["draws"]
+        moves = production_moves(draws, _pooled(pilot["pool"], draws), rng, logit=logit)
         free = [
             names[j]
             for move, _ in moves

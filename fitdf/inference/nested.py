@@ -467,7 +467,6 @@ def fit_nested(
     noise_draws = loglike.noise.draw(radial, tang, rng)  # log10 (n, 2)
     intervals, stderr, corr = _weighted_summaries(problem, points, weights)
 
-    converged = is_converged(n_eff, error)
     settings = {
         "name": "nautilus",
         "version": _package_version("nautilus-sampler"),
@@ -481,27 +480,8 @@ def fit_nested(
         "vectorized": True,
         "seed": seed,
     }
-    diag = {
-        "log_evidence": log_z,
-        "log_evidence_error": error,
-        "n_effective": n_eff,
-        "n_likelihood_evaluations": int(ns.n_like),
-        "effective_per_evaluation": n_eff / max(int(ns.n_like), 1),
-        "converged": converged,
-        "finished": finished,
-        "rounds": rounds,
-        "n_points": int(points.shape[0]),
-        "n_draws": n_draws,
-        "n_bounds": len(ns.bounds),
-        "seconds": seconds,
-        "sampler": settings,
-        # emcee's fields, for the consumers that read them: independent weighted draws
-        "ess_bulk": {n: n_eff for n in problem.names},
-        "rhat": {n: float("nan") for n in problem.names},
-        "tau": {n: float("nan") for n in problem.names},
-        "steps_over_tau": float("nan"),
-        "acceptance_mean": float("nan"),
-    }
+    draws = (int(points.shape[0]), n_draws)
+    diag = _run_diagnostics(ns, problem, error, rounds, finished, draws, seconds, settings)
     info = {
         "seed": seed,
         "sampler": settings,
@@ -538,6 +518,36 @@ def fit_nested(
         ),
         extra_metrics={"log_evidence": log_z, "log_evidence_error": error},
     )
+
+
+def _run_diagnostics(ns, problem, error, rounds, finished, draws, seconds, settings) -> dict:
+    """The run's record for a result's ``diagnostics`` (module docstring, **Outputs**): the
+    evidence and its error, the effective draws and evaluations, :func:`is_converged`, the
+    numbers of weighted points and of draws resampled from them (``draws``), the sampler's
+    ``settings``, and emcee's fields for the consumers that read them (independent
+    weighted draws: the ESS is the effective draws', R-hat and autocorrelation times none).
+    """
+    n_eff = float(ns.n_eff)
+    return {
+        "log_evidence": float(ns.log_z),
+        "log_evidence_error": error,
+        "n_effective": n_eff,
+        "n_likelihood_evaluations": int(ns.n_like),
+        "effective_per_evaluation": n_eff / max(int(ns.n_like), 1),
+        "converged": is_converged(n_eff, error),
+        "finished": finished,
+        "rounds": rounds,
+        "n_points": draws[0],
+        "n_draws": draws[1],
+        "n_bounds": len(ns.bounds),
+        "seconds": seconds,
+        "sampler": settings,
+        "ess_bulk": {n: n_eff for n in problem.names},
+        "rhat": {n: float("nan") for n in problem.names},
+        "tau": {n: float("nan") for n in problem.names},
+        "steps_over_tau": float("nan"),
+        "acceptance_mean": float("nan"),
+    }
 
 
 def _weighted_summaries(problem, points, weights):
