@@ -7,7 +7,7 @@ Run from the repository root::
 Part 1 compares, for 1000 amplitudes, three ways to get the DF of a backlash and of a
 saturation: python-control's numerical ``control.describing_function`` (its default
 100 samples per period, one Python call per sample), fitdf's numerical engine
-(:func:`fitdf.describing.numerical_describing_function` on the ascending branch, at the
+(:func:`fitdf.numerical_df.numerical_describing_function` on the ascending branch, at the
 smallest power-of-two ``n_points`` that is at least as accurate), and fitdf's closed
 forms (:class:`~fitdf.models.constant_width.ConstantWidth` with ``c = inf`` for the
 backlash, ``b = 0`` for the saturation). Errors are against the exact DF.
@@ -40,9 +40,9 @@ import control  # noqa: E402
 import numpy as np  # noqa: E402
 
 from fitdf.chains import WindingChain  # noqa: E402
-from fitdf.describing import numerical_describing_function  # noqa: E402
 from fitdf.models import get_model, model_names  # noqa: E402
 from fitdf.models.constant_width import ConstantWidth  # noqa: E402
+from fitdf.numerical_df import numerical_describing_function  # noqa: E402
 
 N_AMPLITUDES = 1000
 BACKLASH_WIDTH = 1.0  # python-control's b: total dead band

@@ -22,7 +22,7 @@ from fitdf.errors import DataError, FitdfError, ModelError, OptionError
 _LAZY = {
     "fit": ("fitdf.inference.api", "fit"),
     "compare": ("fitdf.inference.ranking", "compare"),
-    "cross_impedance": ("fitdf.inference.ranking", "cross_impedance"),
+    "cross_impedance": ("fitdf.inference.cross_impedance", "cross_impedance"),
     "limit_cycles": ("fitdf.loop.harmonic", "limit_cycles"),
     "get_model": ("fitdf.models", "get_model"),
     "model_names": ("fitdf.models", "model_names"),

@@ -236,6 +236,7 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
     from fitdf._json import clean
     from fitdf.executor import Executor
     from fitdf.inference.cache import comparison_cache
+    from fitdf.inference.posterior_data import write_posteriors
     from fitdf.inference.presentation import summary_text
     from fitdf.inference.ranking import compare_fits
 
@@ -277,6 +278,10 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
             }
             records.append(clean(record))
             summary.append(clean(comparison.summary_record(src)))
+            if args.posterior_out:
+                for path in write_posteriors(comparison.results, args.posterior_out):
+                    if not args.quiet:
+                        _note(f"fitdf fit: wrote {path}")
             if not args.json:
                 _out(("\n" if batch else "") + comparison.text(wide=args.wide, brief=batch))
     per_fit = len(models) * len(args.chain) * (2 if args.method == "both" else 1)

@@ -254,6 +254,10 @@ def validate(args) -> None:
         check_output_folder("--cache", args.cache)
     if getattr(args, "plot", None) is not None:
         check_output_file("--plot", args.plot, PLOT_FORMATS)
+    if getattr(args, "posterior_out", None) is not None:
+        if args.method == "lsq":
+            raise OptionError("--posterior-out needs a posterior: --method nested, mcmc or both")
+        check_output_folder("--posterior-out", args.posterior_out)
     if getattr(args, "max_steps", None) is not None and args.max_steps < args.steps:
         raise OptionError("--max-steps must be at least --steps")
     if (
@@ -502,9 +506,18 @@ def _fit_run_options(sp) -> None:
 
 
 def _fit_output_options(sp) -> None:
-    """What ``fitdf fit`` prints or writes besides the ranking (``--json``, ``--quiet``)."""
+    """What ``fitdf fit`` prints or writes besides the ranking (``--json``, ``--quiet``): the
+    width, and the posteriors as netCDF files (``--posterior-out``)."""
     _add_wide(sp, "the ranking and the summary")
     # (options that write files go here, their paths checked by ``validate`` before any work)
+    sp.add_argument(
+        "--posterior-out",
+        default=None,
+        metavar="FOLDER",
+        help="write each posterior (--method nested, mcmc or both) to FOLDER as an ArviZ netCDF "
+        "file, <data>_<law>_<chain>_<method>.nc: draws in physical units, pointwise "
+        "log-likelihood, evidence and prior",
+    )
 
 
 def _report_parser(sub) -> None:

@@ -3,7 +3,7 @@
 The fitter predicts with the laws' closed-form (or fast) describing functions and the
 chain's vectorised solver. :func:`referee_winding_df` computes the same measurement from the
 law's definition alone: the numerical referee
-(:func:`fitdf.describing.numerical_describing_function`, a Fourier integral of the loop traced
+(:func:`fitdf.numerical_df.numerical_describing_function`, a Fourier integral of the loop traced
 by the law's ascending branch) and a scalar root finder written here
 (:func:`scipy.optimize.brentq` on ``I |R + Z(I)| = V``, the ``winding`` chain's circuit).
 """
@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from fitdf.describing import numerical_describing_function
 from fitdf.models import get_model
+from fitdf.numerical_df import numerical_describing_function
 
 #: Samples per period of the referee's Fourier integral: within 4e-5 of the DF and 0.007
 #: degree of 2**16 samples on every row of tests/test_recovery_independent.py (the worst:

@@ -1,7 +1,7 @@
 """The package's architecture, enforced: layers, no hidden imports, a public API that always works.
 
 The layer order lives in pyproject.toml (``[tool.importlinter]``): cli > cli_parser > report >
-plots > limit_cycle_tables > loop > inference > chains > models > describing | data > params |
+plots > limit_cycle_tables > loop > inference > chains > models > numerical_df | data > params |
 _json | _arviz | executor > errors | jobcache > machine | _text | stop_signals.
 """
 

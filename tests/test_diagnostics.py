@@ -31,6 +31,7 @@ from fitdf.inference.mcmc import (
     fit_mcmc,
     is_converged,
 )
+from fitdf.inference.posterior import psis_loo
 from fitdf.models import get_model
 
 
@@ -131,7 +132,7 @@ def test_arviz_refactor_notice_is_not_a_fit_warning(monkeypatch):
     # ArviZ 0.x's notice about its coming 1.0 says nothing about a fit: if it is raised while
     # the diagnostics run, it must not reach the fit's warnings; any other ArviZ warning does
     mu, loglik = normal_draws()
-    assert mcmc._arviz_diagnostics(mu, ["mu"], mu, loglik)[1] == []
+    assert psis_loo(mu, loglik, ["mu"])[1] == []
     loo = az.loo
 
     def noisy_loo(*args, **kw):
@@ -144,7 +145,7 @@ def test_arviz_refactor_notice_is_not_a_fit_warning(monkeypatch):
         return loo(*args, **kw)
 
     monkeypatch.setattr(az, "loo", noisy_loo)
-    assert mcmc._arviz_diagnostics(mu, ["mu"], mu, loglik)[1] == ["some other ArviZ notice"]
+    assert psis_loo(mu, loglik, ["mu"])[1] == ["some other ArviZ notice"]
 
 
 def test_pareto_k_above_0_7_counts_as_bad(monkeypatch):
@@ -161,7 +162,7 @@ def test_pareto_k_above_0_7_counts_as_bad(monkeypatch):
         )
 
     monkeypatch.setattr(az, "loo", loo_with_k)
-    diag, _ = mcmc._arviz_diagnostics(mu, ["mu"], mu, loglik)
+    diag = psis_loo(mu, loglik, ["mu"])[0]
     assert diag["n_pareto_k_bad"] == 2 and diag["pareto_k_max"] == 1.3
 
 

@@ -1,6 +1,6 @@
 """Piecewise-linear laws: closed forms against the numerical referee and the thesis.
 
-The referee (:func:`fitdf.describing.numerical_describing_function`, 2**17 points per
+The referee (:func:`fitdf.numerical_df.numerical_describing_function`, 2**17 points per
 period) integrates the loop drawn by ``ascending_branch``; its error on these
 piecewise-linear loops is ~2e-10 of the slope, so 1e-9 * k is a meaningful bound.
 """

@@ -2,7 +2,7 @@
 
 The fitter predicts with the laws' closed-form (or fast) describing functions and the
 chain's vectorised solver. The data here come from the numerical referee
-(:func:`fitdf.describing.numerical_describing_function`, a Fourier integral of the loop)
+(:func:`fitdf.numerical_df.numerical_describing_function`, a Fourier integral of the loop)
 and a scalar root finder (:func:`scipy.optimize.brentq` on ``I |R + Z(I)| = V``), both in
 ``tests/referee.py``, with noise at the tables' printed precision (DF to 3 decimals,
 phase to 0.1 degree, after Gaussian noise of 0.005 and 0.5 degree). A sign or factor

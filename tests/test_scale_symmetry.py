@@ -16,11 +16,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from fitdf.chains import get_chain
+from fitdf.chains import get_chain, series_resistance_prior
 from fitdf.data.cores import core_geometry
 from fitdf.data.resolve import resolve_data
-from fitdf.inference import ranking
-from fitdf.inference.problem import FitProblem, series_resistance_prior
+from fitdf.inference import cross_impedance
+from fitdf.inference.problem import FitProblem
 from fitdf.models import MODELS, get_model
 from fitdf.params import current_scaled
 
@@ -85,7 +85,7 @@ def test_the_dynamic_chains_loss_terms_scale_with_the_current():
     assert np.abs(moved - base).max() <= 6e-4
 
 
-# --- the rescaled start of a cross-impedance prediction (fitdf.inference.ranking) ----------
+# --- the rescaled start of a cross-impedance prediction (fitdf.inference.cross_impedance) -
 
 #: A Preisach core of Supermalloy-like size (the report's fit of Table B.4, rounded) and its
 #: rate-dependent loss terms, at the series resistance it was trained with.
@@ -121,8 +121,8 @@ def test_cross_impedance_node_starts_from_the_training_core_rescaled(
         seen.update(problem=problem, starts=starts, seed=seed, uncertainties=uncertainties)
         return "polished"
 
-    monkeypatch.setattr(ranking, "fit_lsq", polish)
-    assert ranking._rescaled(fitted, r1, seed=7) == "polished"
+    monkeypatch.setattr(cross_impedance, "fit_lsq", polish)
+    assert cross_impedance._rescaled(fitted, r1, seed=7) == "polished"
     node = seen["problem"]
     assert node.fixed == {"r_series": r1} and seen["seed"] == 7 and not seen["uncertainties"]
     assert seen["starts"] is not None
@@ -153,7 +153,7 @@ def test_cross_impedance_node_starts_from_the_training_core_rescaled(
 def test_series_nodes_are_the_priors_quadrature_or_the_value_given():
     rows = resolve_data("B.3", "default")
     median, sigma = series_resistance_prior(core_geometry("permalloy").r_winding_estimate)
-    nodes, weights = ranking._series_nodes(rows, None)
+    nodes, weights = cross_impedance._series_nodes(rows, None)
     assert nodes == pytest.approx([median * np.exp(sigma * z) for z in (-(3**0.5), 0, 3**0.5)])
     assert weights == [1 / 6, 2 / 3, 1 / 6] and sum(weights) == pytest.approx(1.0, abs=1e-15)
-    assert ranking._series_nodes(rows, 123.0) == ([123.0], [1.0])
+    assert cross_impedance._series_nodes(rows, 123.0) == ([123.0], [1.0])

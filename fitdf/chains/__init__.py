@@ -23,7 +23,8 @@ analyser read:
 :func:`get_chain` returns a chain class by name (:data:`CHAINS`). Every chain has ``name``,
 ``title``, ``params`` and the class methods ``predict``, ``core_current`` and
 ``operating_point``; ``model_theta`` ``(p,)`` or ``(batch, p)`` and ``chain_theta`` ``(q,)``
-or ``(batch, q)`` broadcast, so MCMC walkers evaluate in one call.
+or ``(batch, q)`` broadcast, so a batch of parameter vectors evaluates in one call. The
+circuit's series resistance and its prior: :mod:`fitdf.chains.series_resistance`.
 """
 
 from __future__ import annotations
@@ -32,6 +33,11 @@ from fitdf.chains.base import R_MIN, MeasurementChain, OperatingPoint
 from fitdf.chains.current_solver import solve_current
 from fitdf.chains.direct import DirectChain
 from fitdf.chains.dynamic import DynamicChain
+from fitdf.chains.series_resistance import (
+    R_SERIES_PRIOR_SIGMA,
+    SOURCE_AND_LEADS_OHM,
+    series_resistance_prior,
+)
 from fitdf.chains.voltage import VoltageChain
 from fitdf.chains.winding import WindingChain
 from fitdf.errors import ModelError
@@ -48,6 +54,9 @@ __all__ = [
     "chain_names",
     "solve_current",
     "R_MIN",
+    "series_resistance_prior",
+    "SOURCE_AND_LEADS_OHM",
+    "R_SERIES_PRIOR_SIGMA",
 ]
 
 #: Registered chains by name.

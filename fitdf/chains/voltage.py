@@ -11,7 +11,7 @@ law's hysteresis loop::
     V sin(wt) = R i + d lambda / dt,        output = gain d lambda / dt.
 
 The DF is the output's first harmonic over ``V`` with the convention of
-:mod:`fitdf.describing` (``angle > 0`` is a lead). Unlike the ``winding`` chain, this chain
+:mod:`fitdf.numerical_df` (``angle > 0`` is a lead). Unlike the ``winding`` chain, this chain
 assumes no current waveform: the current takes whatever shape the loop and the drive give
 it ("introducing resistance in series also changes the current wave shape", end of section
 V.5; Photos 8, 9).

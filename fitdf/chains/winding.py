@@ -6,6 +6,7 @@ import numpy as np
 
 from fitdf.chains.base import R_MIN, MeasurementChain, OperatingPoint, as_points
 from fitdf.chains.current_solver import solve_current
+from fitdf.chains.series_resistance import R_SERIES
 from fitdf.models import get_model
 from fitdf.params import ParamSpec, split_theta
 
@@ -38,16 +39,7 @@ class WindingChain(MeasurementChain):
     name = "winding"
     title = "Winding in series with the source resistance (Fig 5.10)"
     params = (
-        ParamSpec(
-            "r_series",
-            70.0,
-            (1.0, 5000.0),
-            unit="ohm",
-            description="series resistance besides the source impedance: winding, source "
-            "output and leads",
-            equation="sec V.5, Fig 5.10",
-            log=True,
-        ),
+        R_SERIES,
         ParamSpec(
             "gain",
             1.0,

@@ -19,7 +19,7 @@ units in which manufacturers, and Appendix A of the thesis, characterise a core
   ``B_r = -ascending_branch(0, a)`` of the largest loop, and the squareness ``B_r / B_p``;
 * the fitted **series resistance** (winding, source output and leads) against the 95 %
   interval of its prior about the winding's Appendix A estimate
-  (:func:`fitdf.inference.problem.series_resistance_prior`).
+  (:func:`fitdf.chains.series_resistance.series_resistance_prior`).
 
 Notes
 -----
@@ -44,11 +44,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from fitdf._json import clean
+from fitdf.chains import series_resistance_prior
 from fitdf.data.cores import CoreGeometry, appendix_a_ranges
 from fitdf.errors import ModelError, OptionError
 from fitdf.inference.caveats import undetermined_parameters
 from fitdf.inference.presentation import MaterialRecord
-from fitdf.inference.problem import series_resistance_prior
 from fitdf.params import PER_TABLE, parameter_base
 
 __all__ = [

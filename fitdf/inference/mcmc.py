@@ -30,7 +30,8 @@ bulk ESS) or ``max_steps`` is reached; it stops earlier once :data:`MIN_STEPS_OV
 autocorrelation times exceed ``max_steps``, and a chain that reaches ``max_steps`` on course
 for them but short of R-hat or ESS may go on to ``extend_steps``. The point estimate is the draw of highest posterior, intervals
 are posterior percentiles, and the warnings name what the posterior does not settle
-(:mod:`fitdf.inference.caveats`). A seed fixes the whole run.
+(:mod:`fitdf.inference.caveats`); the result is assembled as nested sampling's is
+(:func:`fitdf.inference.posterior.posterior_result`). A seed fixes the whole run.
 
 References
 ----------
@@ -47,33 +48,26 @@ leave-one-out cross-validation and WAIC", Statistics and Computing 27, 1413 (201
 
 from __future__ import annotations
 
-import warnings
-
 import emcee
 import numpy as np
 import pandas as pd
 from scipy.special import expit, log_expit, logit
 
 from fitdf._arviz import arviz, walkers_as_chains
-from fitdf.inference.caveats import (
-    identifiability_warnings,
-    noise_bound_warnings,
-    posterior_bound_warnings,
-)
 from fitdf.inference.convergence import MIN_ESS, MIN_STEPS_OVER_TAU, RHAT_MAX
-from fitdf.inference.metrics import information_criteria, residual_metrics
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
+from fitdf.inference.posterior import PERCENTS, QUANTILES, posterior_result, recorded_warnings
+from fitdf.inference.priors import noise_priors_text
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.proposals import (
     PriorCoordinateProposal,
     StudentTProposal,
     production_moves,
 )
-from fitdf.inference.results import FitResult, PosteriorResult, residual_table
+from fitdf.inference.results import FitResult, PosteriorResult
 
 __all__ = [
     "fit_mcmc",
-    "loo_record",
     "default_moves",
     "LogPosterior",
     "NOISE_BOUNDS",
@@ -248,53 +242,6 @@ def is_converged(steps_over_tau, rhat, ess_bulk=None) -> bool:
     return bool(steps_over_tau >= MIN_STEPS_OVER_TAU and max(rhat.values()) < RHAT_MAX and ess_ok)
 
 
-def loo_record(loo, waic) -> dict:
-    """The PSIS-LOO and WAIC summary a posterior's diagnostics carry, from ArviZ's
-    ``loo(..., pointwise=True)`` and ``waic(...)``: elpd with standard errors, the deviance-scale
-    LOO-IC and WAIC, the largest Pareto k and the rows above 0.7, and the pointwise elpd."""
-    pareto_k = np.asarray(loo.pareto_k)
-    return {
-        "elpd_loo": float(loo.elpd_loo),
-        "elpd_loo_se": float(loo.se),
-        "p_loo": float(loo.p_loo),
-        "looic": float(-2 * loo.elpd_loo),
-        "looic_se": float(2 * loo.se),
-        "elpd_waic": float(waic.elpd_waic),
-        "elpd_waic_se": float(waic.se),
-        "waic": float(-2 * waic.elpd_waic),
-        "waic_se": float(2 * waic.se),
-        "pareto_k_max": float(np.max(pareto_k)),
-        "n_pareto_k_bad": int(np.sum(pareto_k > 0.7)),
-        "pointwise_elpd_loo": np.asarray(loo.loo_i).tolist(),
-    }
-
-
-def _arviz_diagnostics(post_burn, names, loo_draws, loglik):
-    """R-hat and bulk ESS on the whole post-burn chain; PSIS-LOO and WAIC on a subsample.
-
-    ``post_burn`` and ``loo_draws`` are emcee arrays ``(draw, walker, parameter)``; ArviZ
-    wants ``(chain, draw)``, so walkers become ArviZ chains.
-    """
-    az = arviz()
-    with warnings.catch_warnings(record=True) as w, walkers_as_chains():
-        warnings.simplefilter("always")
-        diag = chain_diagnostics(post_burn, names)
-        idata = az.from_dict(
-            posterior=_as_arviz(loo_draws, names), log_likelihood={"df": np.swapaxes(loglik, 0, 1)}
-        )
-        loo = az.loo(idata, pointwise=True)
-        waic = az.waic(idata, pointwise=True)  # explicit: the rcParams default may be False
-    # ArviZ's shape heuristic complains when walkers outnumber the (thinned) draws; that is expected here.
-    caught = sorted(
-        {
-            str(x.message).split("\n")[0]
-            for x in w
-            if "More chains" not in str(x.message) and "refactor" not in str(x.message)
-        }
-    )
-    return {**diag, **loo_record(loo, waic)}, caught
-
-
 def _tau_range(tau, n_steps):
     """Smallest and largest finite autocorrelation time; the chain's length if none is finite
     (no parameter moved: one autocorrelation time is then the whole chain, at least)."""
@@ -311,8 +258,9 @@ SETTLED_SHAPE_CHANGE = 0.25
 SETTLED_ACCEPTANCE = 0.15
 #: ... after at least this many adapted rounds: the first is compared with differential
 #: evolution's, and a kernel move built on draws that cover only part of the posterior
-#: accepts well inside that part (constant_width on B.3: acceptance 0.40 and shape change
-#: below 0.25 after one adapted round, then production at R-hat 1.25, tau ~100).
+#: accepts well inside that part, so one adapted round can pass both tests on a posterior
+#: it has not covered (constant_width on B.3 does: acceptance 0.40 and a shape change below
+#: 0.25 after one round, and production from it does not mix, R-hat 1.25).
 MIN_ADAPTED_ROUNDS = 2
 
 
@@ -355,11 +303,9 @@ def _run_until_converged(
     R-hat or bulk ESS is short: it mixes well enough and needs more draws, not another
     sampler (Preisach on B.1 and B.2: at 4000 steps, 60 autocorrelation times and R-hat 1.02,
     ESS 310-430). It goes on while 50 autocorrelation times fit in ``extend_to``: the rule
-    above with the extended limit. (With 50 times within the steps run so far as the rule,
-    an estimate that moves by a few per cent from check to check stopped a chain the moment
-    it ticked up: Preisach on B.3 at 4200 steps, 49.2 times; with this rule that chain went
-    on to 4700 steps and stopped as its estimate kept growing, 126 steps, 50 times beyond
-    6000.)
+    above with the extended limit, not 50 times within the steps run so far, which would
+    stop a chain whenever its estimate, moving by a few per cent from check to check, ticks
+    up.
     Returns ``(tau, given_up)``: ``given_up`` is that projected length, else None.
     ``to_internal`` maps the sampler's coordinates to the reported ones (the diagnostics
     are those of the reported parameters).
@@ -392,6 +338,50 @@ def _run_until_converged(
 def _pooled(pool, last):
     """The pooled draws of the adapted pilot rounds (the last round's before there are any)."""
     return np.concatenate(pool) if pool else last
+
+
+def _pilot(logpost, start, pilot_steps, max_pilot_rounds, random_state, rng, progress) -> dict:
+    """The pilot (:func:`fit_mcmc`; discarded): differential evolution from the walkers
+    ``start``, then rounds of the moves adapted to the previous round's second half (a better
+    estimate of the posterior's shape: they mix several times faster than DE), until a
+    round's draws have the previous round's shape (:data:`SETTLED_SHAPE_CHANGE`) and its
+    moves accept (:data:`SETTLED_ACCEPTANCE`), or ``max_pilot_rounds``: walkers started at
+    the least-squares optimum may still be spreading along a ridge, or moving to where the
+    fitted noise puts the mass. One random stream (``random_state``, emcee's) runs through
+    every round. Returns the walkers' last positions ``start``, the stream's
+    ``random_state``, each round's shape change and acceptance (``rounds``), the last
+    round's second half (``draws``, None without a pilot) and the adapted rounds' draws
+    (``pool``).
+    """
+    ndim, logit = logpost.ndim, logpost.box is not None
+    out = {"start": start, "random_state": random_state, "rounds": [], "draws": None, "pool": []}
+    if pilot_steps <= 0:
+        return out
+    round_moves, previous, pool = default_moves(), None, out["pool"]
+    for k in range(1 + max(int(max_pilot_rounds), 1)):
+        pilot = emcee.EnsembleSampler(len(start), ndim, logpost, vectorize=True, moves=round_moves)
+        # emcee's wrapper of the log-probability prints a traceback for any exception,
+        # Ctrl-C and SIGTERM included (the command line stops with one line); it only
+        # adds args we don't use
+        pilot.log_prob_fn = logpost
+        pilot.random_state = random_state
+        start = pilot.run_mcmc(
+            start, pilot_steps, progress=progress, skip_initial_state_check=True
+        ).coords
+        random_state = pilot.random_state
+        draws = pilot.get_chain(discard=pilot_steps // 2, flat=True)
+        change = np.inf if previous is None else _shape_change(previous, draws)
+        acceptance = float(np.mean(pilot.acceptance_fraction))
+        out["rounds"].append({"shape_change": change, "acceptance": acceptance})
+        settled = change <= SETTLED_SHAPE_CHANGE and acceptance >= SETTLED_ACCEPTANCE
+        if k >= MIN_ADAPTED_ROUNDS and settled:
+            break
+        previous = draws
+        if k >= 1:  # the adapted rounds' draws, pooled: a lobe visited once stays covered
+            pool.append(draws)
+        round_moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
+    out.update(start=start, random_state=random_state, draws=draws)
+    return out
 
 
 def fit_mcmc(
@@ -449,44 +439,14 @@ def fit_mcmc(
     p0 = _initial_ball(problem, lsq, n_walkers, rng, np.vstack([logpost.bounds[:P], NOISE_BOUNDS]))
     start = logpost.to_sampler(p0[:, :ndim])
     random_state = np.random.RandomState(seed).get_state()
-    pilot, pilot_rounds, pool = None, [], []
-    if pilot_steps > 0:
-        # differential evolution from the ball, then rounds of the moves adapted to the
-        # previous round's second half (a better estimate of the posterior's shape: they mix
-        # several times faster than DE), until a round's draws have the previous round's
-        # shape (SETTLED_SHAPE_CHANGE) and its moves accept (SETTLED_ACCEPTANCE), or
-        # ``max_pilot_rounds``: walkers started at the least-squares optimum may still be
-        # spreading along a ridge, or moving to where the fitted noise puts the mass
-        round_moves, previous = default_moves(), None
-        for k in range(1 + max(int(max_pilot_rounds), 1)):
-            pilot = emcee.EnsembleSampler(
-                n_walkers, ndim, logpost, vectorize=True, moves=round_moves
-            )
-            # emcee's wrapper of the log-probability prints a traceback for any exception,
-            # Ctrl-C and SIGTERM included (the command line stops with one line); it only
-            # adds args we don't use
-            pilot.log_prob_fn = logpost
-            pilot.random_state = random_state  # one random stream through every stage
-            start = pilot.run_mcmc(
-                start, pilot_steps, progress=progress, skip_initial_state_check=True
-            ).coords
-            random_state = pilot.random_state
-            draws = pilot.get_chain(discard=pilot_steps // 2, flat=True)
-            change = np.inf if previous is None else _shape_change(previous, draws)
-            acceptance = float(np.mean(pilot.acceptance_fraction))
-            pilot_rounds.append({"shape_change": change, "acceptance": acceptance})
-            settled = change <= SETTLED_SHAPE_CHANGE and acceptance >= SETTLED_ACCEPTANCE
-            if k >= MIN_ADAPTED_ROUNDS and settled:
-                break
-            previous = draws
-            if k >= 1:  # the adapted rounds' draws, pooled: a lobe visited once stays covered
-                pool.append(draws)
-            round_moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
-    adapted = moves is None and pilot is not None
+    pilot = _pilot(logpost, start, pilot_steps, max_pilot_rounds, random_state, rng, progress)
+    start, random_state, pilot_rounds = pilot["start"], pilot["random_state"], pilot["rounds"]
+    adapted = moves is None and pilot["draws"] is not None
     free = []  # the coordinates the prior-coordinate move draws (names)
     if adapted:
         # independent chains: few and long (R-hat needs each chain long, not many of them)
-        moves = production_moves(draws, _pooled(pool, draws), rng, logit=logit)
+        draws = pilot["draws"]
+        moves = production_moves(draws, _pooled(pilot["pool"], draws), rng, logit=logit)
         free = [
             names[j]
             for move, _ in moves
@@ -528,8 +488,8 @@ def fit_mcmc(
     # the noise scales of those draws: sampled with them, or drawn given them when the
     # sampler had them integrated out (the same joint posterior)
     loo_full = loo_draws if logpost.noise is None else logpost.with_noise(loo_draws, rng)
-    loglik = logpost.pointwise(loo_full)  # (draws, walkers, n)
-    diag, caught = _arviz_diagnostics(post_burn, names, loo_draws, loglik)
+    with recorded_warnings() as caught:
+        diag = chain_diagnostics(post_burn, names)
     diag.update(
         {
             "tau": dict(zip(names, map(float, tau))),
@@ -550,78 +510,14 @@ def fit_mcmc(
     diag["steps_needed"] = given_up
     diag["converged"] = is_converged(diag["steps_over_tau"], diag["rhat"], diag["ess_bulk"])
 
-    warns = []
-    if given_up:
-        warns.append(
-            f"stopped at {n_steps} steps: at its autocorrelation time (max tau {tau_max:.0f}) "
-            f"the chain needs ~{given_up} steps to converge, more than max_steps {max_steps}"
-        )
-    elif diag["steps_over_tau"] < MIN_STEPS_OVER_TAU:
-        warns.append(
-            f"chain of {n_steps} steps is shorter than 50 autocorrelation times "
-            f"(max tau {tau_max:.0f}); run more --steps"
-        )
-    if max(diag["rhat"].values()) >= RHAT_MAX:
-        worst = max(diag["rhat"], key=diag["rhat"].get)
-        warns.append(f"R-hat {diag['rhat'][worst]:.3f} for {worst} (>= {RHAT_MAX})")
-    if min(diag["ess_bulk"].values()) < MIN_ESS:
-        worst = min(diag["ess_bulk"], key=diag["ess_bulk"].get)
-        warns.append(f"bulk ESS {diag['ess_bulk'][worst]:.0f} for {worst} (< {MIN_ESS})")
-    if not 0.1 <= diag["acceptance_mean"] <= 0.9:
-        warns.append(f"mean acceptance fraction {diag['acceptance_mean']:.2f} outside 0.1-0.9")
-    if diag["n_pareto_k_bad"]:
-        warns.append(
-            f"PSIS-LOO: {diag['n_pareto_k_bad']} rows with Pareto k > 0.7 (LOO unreliable there)"
-        )
-    warns += [f"ArviZ: {c}" for c in caught if "pareto" not in c.lower()]
-
-    nat = problem.to_natural(flat[:, :P])
     # Point estimate: the draw of highest posterior (MAP). The per-parameter median can
     # combine different modes of a multimodal posterior into a point that fits none.
     log_prob = sampler.get_log_prob(discard=burn)
     if logpost.box is not None:  # the posterior density of the internal vector, not of z
         log_prob = log_prob - logpost.box.log_jacobian(sampler.get_chain(discard=burn))
     best_draw = post_burn.reshape(-1, ndim)[int(np.argmax(log_prob.reshape(-1)))]
-    median_internal = np.median(flat[:, :P], axis=0)
     point = best_draw[:P]
-    chi2_point = float(np.sum(problem.weighted_residuals(point) ** 2))
-    chi2_median = float(np.sum(problem.weighted_residuals(median_internal) ** 2))
-    if chi2_median > chi2_point + 2 * P + 10:
-        warns.append(
-            f"posterior is multimodal or strongly skewed: the per-parameter medians fit far worse "
-            f"(chi2 {chi2_median:.0f}) than the best draw (chi2 {chi2_point:.0f}); values are the best draw"
-        )
-    warns += posterior_bound_warnings(problem, flat[:, :P]) + problem.limit_warnings(point)
-    values = {k: float(v) for k, v in problem.full_natural(point).items()}
-    intervals = {}
-    for i, s in enumerate(problem.specs):
-        q = np.percentile(nat[:, i], [2.5, 16, 50, 84, 97.5])
-        intervals[s.name] = dict(zip(["p2.5", "p16", "p50", "p84", "p97.5"], map(float, q)))
-    # (every draw's when the sampler carried them; the LOO draws' when they were integrated out)
-    noise_draws = (samples if logpost.noise is None else loo_full)[..., P:]
-    for j, n in enumerate(NOISE_NAMES):
-        q = np.percentile(10 ** noise_draws[..., j].ravel(), [2.5, 16, 50, 84, 97.5])
-        diag[f"{n}_interval"] = dict(zip(["p2.5", "p16", "p50", "p84", "p97.5"], map(float, q)))
-    warns += noise_bound_warnings(noise_draws)
-    warns += identifiability_warnings(problem, intervals)
-    stderr = {s.name: float(np.std(nat[:, i])) for i, s in enumerate(problem.specs)}
-    corr = pd.DataFrame(
-        np.corrcoef(flat[:, :P], rowvar=False).reshape(P, P),
-        index=problem.names,
-        columns=problem.names,
-    )
-
-    predicted = problem.predict(point)
-    metrics = {
-        "n_points": problem.data.n,
-        "n_params": P,
-        **residual_metrics(predicted, problem.data.measured),
-        **information_criteria(problem.weighted_residuals(point), P),
-        **{
-            k: diag[k]
-            for k in ("looic", "looic_se", "waic", "waic_se", "elpd_loo", "elpd_loo_se", "p_loo")
-        },
-    }
+    intervals, stderr, corr = _summaries(problem, flat[:, :P])
     info = {
         "seed": seed,
         "n_steps": n_steps,
@@ -643,7 +539,7 @@ def fit_mcmc(
         "drawn_from_prior": free,
         "point_estimate": "highest-posterior draw (MAP)"
         + (" of the parameters' marginal posterior" if marginal_noise else ""),
-        "noise_priors": "log-uniform: sigma_magnitude 0.001..0.3, sigma_phase 0.1..50 deg",
+        "noise_priors": noise_priors_text(),
         "noise": (
             "integrated out while sampling (Gauss-Legendre in log sigma), drawn given each "
             "draw used for PSIS-LOO"
@@ -652,22 +548,86 @@ def fit_mcmc(
         ),
         "fixed": dict(problem.fixed),
     }
-    return PosteriorResult(
-        model=problem.model.name,
-        chain=problem.chain.name,
-        method="mcmc",
-        label=problem.data.label,
-        values=values,
-        stderr=stderr,
-        intervals=intervals,
-        correlations=corr,
-        metrics=metrics,
-        residuals=residual_table(problem, predicted),
-        warnings=warns,
-        info=info,
-        problem=problem,
-        internal=point,
+    n_loo, n_chains_loo = loo_draws.shape[:2]
+    return posterior_result(
+        problem,
+        "mcmc",
+        point=point,
         samples=samples[..., :P],
-        noise_samples=10**noise_draws,
+        intervals=intervals,
+        stderr=stderr,
+        correlations=corr,
+        # (every draw's when the sampler carried them; the LOO draws' when they were
+        # integrated out)
+        noise_draws=(samples if logpost.noise is None else loo_full)[..., P:],
+        loo_draws=loo_full[..., :P],
+        loo_noise=loo_full[..., P:],
         diagnostics=diag,
+        info=info,
+        sampler_warnings=_chain_warnings(diag, given_up, tau_max),
+        point_warnings=_median_warnings(problem, point, flat[:, :P]),
+        caught=caught,
+        sampled_noise=logpost.noise is None,
+        loo_description=(
+            f"{n_loo} draws of each of {n_chains_loo} chains: every {step} of the "
+            f"{samples.shape[0]} kept after a burn-in of {burn} steps and thinning by {thin}"
+        ),
     )
+
+
+def _summaries(problem, flat):
+    """Intervals, standard errors and correlations of equal-weight internal draws ``(n, P)``."""
+    P = problem.ndim
+    nat = problem.to_natural(flat)
+    intervals = {}
+    for i, s in enumerate(problem.specs):
+        q = np.percentile(nat[:, i], list(PERCENTS))
+        intervals[s.name] = dict(zip(QUANTILES, map(float, q)))
+    stderr = {s.name: float(np.std(nat[:, i])) for i, s in enumerate(problem.specs)}
+    corr = pd.DataFrame(
+        np.corrcoef(flat, rowvar=False).reshape(P, P),
+        index=problem.names,
+        columns=problem.names,
+    )
+    return intervals, stderr, corr
+
+
+def _chain_warnings(diag, given_up, tau_max) -> list[str]:
+    """What keeps the chain from converging (:func:`is_converged`) and an acceptance
+    outside 0.1-0.9, one warning each."""
+    n_steps, max_steps = diag["n_steps"], diag["max_steps"]
+    warns = []
+    if given_up:
+        warns.append(
+            f"stopped at {n_steps} steps: at its autocorrelation time (max tau {tau_max:.0f}) "
+            f"the chain needs ~{given_up} steps to converge, more than max_steps {max_steps}"
+        )
+    elif diag["steps_over_tau"] < MIN_STEPS_OVER_TAU:
+        warns.append(
+            f"chain of {n_steps} steps is shorter than {MIN_STEPS_OVER_TAU} autocorrelation "
+            f"times (max tau {tau_max:.0f}); run more --steps"
+        )
+    if max(diag["rhat"].values()) >= RHAT_MAX:
+        worst = max(diag["rhat"], key=diag["rhat"].get)
+        warns.append(f"R-hat {diag['rhat'][worst]:.3f} for {worst} (>= {RHAT_MAX})")
+    if min(diag["ess_bulk"].values()) < MIN_ESS:
+        worst = min(diag["ess_bulk"], key=diag["ess_bulk"].get)
+        warns.append(f"bulk ESS {diag['ess_bulk'][worst]:.0f} for {worst} (< {MIN_ESS})")
+    if not 0.1 <= diag["acceptance_mean"] <= 0.9:
+        warns.append(f"mean acceptance fraction {diag['acceptance_mean']:.2f} outside 0.1-0.9")
+    return warns
+
+
+def _median_warnings(problem, point, flat) -> list[str]:
+    """A posterior whose per-parameter medians (of the draws ``(n, P)``) fit far worse than
+    the point estimate: multimodal or strongly skewed, so the medians are no estimate."""
+    P = problem.ndim
+    chi2_point = float(np.sum(problem.weighted_residuals(point) ** 2))
+    median = np.median(flat, axis=0)
+    chi2_median = float(np.sum(problem.weighted_residuals(median) ** 2))
+    if chi2_median > chi2_point + 2 * P + 10:
+        return [
+            f"posterior is multimodal or strongly skewed: the per-parameter medians fit far worse "
+            f"(chi2 {chi2_median:.0f}) than the best draw (chi2 {chi2_point:.0f}); values are the best draw"
+        ]
+    return []

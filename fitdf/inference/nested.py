@@ -47,11 +47,13 @@ run goes on, in rounds of a larger target of effective draws, until both hold or
 evaluations reach ``max_evaluations``.
 
 **Outputs.** The point estimate is the point of highest posterior density (likelihood times
-prior density) of all evaluated, the exploration's included; intervals, standard errors and correlations are weighted percentiles and
-moments of the weighted draws; ``samples`` are ``n_draws`` of them resampled to equal
-weights (systematic resampling, shape ``(n_draws, 1, P)``); PSIS-LOO and WAIC are those
-of up to ``max_loo_draws`` of these, with the noise scales drawn given each as MCMC does.
-``diagnostics`` holds ``log_evidence``, ``log_evidence_error``, ``n_effective``,
+prior density) of all evaluated, the exploration's included; intervals, standard errors and
+correlations are weighted percentiles and moments of the weighted draws; ``samples`` are
+``n_draws`` of them resampled to equal weights (systematic resampling, shape
+``(n_draws, 1, P)``); PSIS-LOO and WAIC are those of up to ``max_loo_draws`` of these (a
+random choice), with the noise scales drawn given each as MCMC does, and ``pointwise`` holds
+them with their pointwise log-likelihood. From the draws on, the result is assembled as
+MCMC's is (:func:`fitdf.inference.posterior.posterior_result`). ``diagnostics`` holds ``log_evidence``, ``log_evidence_error``, ``n_effective``,
 ``n_likelihood_evaluations``, ``converged`` and the sampler's settings; a seed fixes the
 whole run.
 
@@ -72,7 +74,6 @@ leave-one-out cross-validation and WAIC", Statistics and Computing 27, 1413 (201
 from __future__ import annotations
 
 import time
-import warnings
 from importlib.metadata import version as _package_version
 
 import numpy as np
@@ -80,18 +81,12 @@ import pandas as pd
 from scipy.special import logsumexp
 from scipy.stats import truncnorm
 
-from fitdf._arviz import arviz, walkers_as_chains
-from fitdf.inference.caveats import (
-    identifiability_warnings,
-    noise_bound_warnings,
-    posterior_bound_warnings,
-)
 from fitdf.inference.convergence import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
-from fitdf.inference.mcmc import loo_record
-from fitdf.inference.metrics import information_criteria, residual_metrics
-from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES, NoiseMarginal
+from fitdf.inference.noise import NoiseMarginal
+from fitdf.inference.posterior import PERCENTS, QUANTILES, posterior_result
+from fitdf.inference.priors import noise_prior_description, noise_priors_text, prior_description
 from fitdf.inference.problem import FitProblem
-from fitdf.inference.results import FitResult, PosteriorResult, residual_table
+from fitdf.inference.results import FitResult, PosteriorResult
 
 __all__ = [
     "fit_nested",
@@ -120,8 +115,6 @@ SAMPLERS = ("nautilus",)
 DEFAULT_LIVE = 300
 DEFAULT_NETWORKS = 1
 
-_QUANTILES = ("p2.5", "p16", "p50", "p84", "p97.5")
-
 
 class PriorTransform:
     """The normalised prior of ``problem``: a map of the unit cube to internal coordinates.
@@ -142,6 +135,7 @@ class PriorTransform:
         self.bounds = np.asarray(problem.internal_bounds(), float).reshape(-1, 2)
         self.lo = self.bounds[:, 0]
         self.width = self.bounds[:, 1] - self.bounds[:, 0]
+        self.priors = dict(problem.priors)
         #: column -> (centre, sigma, a, b) of the truncated normals (a, b standardised bounds)
         self.gaussian = {}
         for name, (centre, sigma) in problem.priors.items():
@@ -174,40 +168,9 @@ class PriorTransform:
         return np.where(inside, out, -np.inf)
 
     def describe(self) -> dict:
-        """Each parameter's prior in its natural units: distribution, bounds, unit (and the
-        median and width of a truncated log-normal or the mean and width of a normal)."""
-        out = {}
-        for i, s in enumerate(self.specs):
-            rec = {"bounds": [float(s.bounds[0]), float(s.bounds[1])], "unit": s.unit_label}
-            if i in self.gaussian:
-                centre, sigma = self.gaussian[i][:2]
-                if s.log:
-                    rec["distribution"] = "log-normal truncated to the bounds"
-                    rec["median"] = float(10.0**centre)
-                    rec["sigma_ln"] = float(sigma * np.log(10.0))
-                else:
-                    rec["distribution"] = "normal truncated to the bounds"
-                    rec["mean"] = centre
-                    rec["sigma"] = sigma
-            else:
-                rec["distribution"] = "log-uniform" if s.log else "uniform"
-            out[s.name] = {"distribution": rec.pop("distribution"), **rec}
-        return out
-
-
-def noise_prior_description() -> dict:
-    """The two noise scales' priors (integrated out of the likelihood), as
-    :meth:`PriorTransform.describe` gives the parameters'."""
-    units = {"sigma_magnitude": "-", "sigma_phase_deg": "deg"}
-    return {
-        name: {
-            "distribution": "log-uniform",
-            "bounds": [float(10.0**lo), float(10.0**hi)],
-            "unit": units[name],
-            "integrated_out": True,
-        }
-        for name, (lo, hi) in zip(NOISE_NAMES, NOISE_BOUNDS)
-    }
+        """Each parameter's prior in its natural units
+        (:func:`fitdf.inference.priors.prior_description`)."""
+        return prior_description(self.specs, self.priors)
 
 
 class NestedLikelihood:
@@ -335,25 +298,6 @@ def systematic_resample(weights, n: int, rng) -> np.ndarray:
     cdf /= cdf[-1]
     positions = (rng.random() + np.arange(n)) / n
     return np.minimum(np.searchsorted(cdf, positions), len(weights) - 1)
-
-
-def _loo_diagnostics(problem, draws, noise_draws):
-    """PSIS-LOO and WAIC (ArviZ) of equal-weight internal ``draws`` ``(n, P)`` with their
-    log10 noise scales ``(n, 2)``: one chain of ``n`` draws."""
-    loglik = problem.pointwise_loglike(
-        draws, 10.0 ** noise_draws[:, 0], 10.0 ** noise_draws[:, 1]
-    )  # (n, rows)
-    az = arviz()
-    with warnings.catch_warnings(record=True) as w, walkers_as_chains():
-        warnings.simplefilter("always")
-        idata = az.from_dict(
-            posterior={n: draws[None, :, i] for i, n in enumerate(problem.names)},
-            log_likelihood={"df": loglik[None]},
-        )
-        loo = az.loo(idata, pointwise=True)
-        waic = az.waic(idata, pointwise=True)
-    caught = sorted({str(x.message).split("\n")[0] for x in w if "refactor" not in str(x.message)})
-    return loo_record(loo, waic), caught
 
 
 class _Padded:
@@ -516,28 +460,13 @@ def fit_nested(
     n_draws = int(n_draws or max(1000, int(np.ceil(n_eff))))
     idx = systematic_resample(weights, n_draws, rng)
     flat = points[idx]
-    loo_idx = np.sort(rng.choice(n_draws, min(max_loo_draws, n_draws), replace=False))
+    n_loo = min(max_loo_draws, n_draws)
+    loo_idx = np.sort(rng.choice(n_draws, n_loo, replace=False))
     loo_draws = flat[loo_idx]
     radial, tang = problem.error_components(problem.predict(loo_draws))
     noise_draws = loglike.noise.draw(radial, tang, rng)  # log10 (n, 2)
-    diag, caught = _loo_diagnostics(problem, loo_draws, noise_draws)
+    intervals, stderr, corr = _weighted_summaries(problem, points, weights)
 
-    nat = problem.to_natural(points)
-    intervals, stderr = {}, {}
-    for i, s in enumerate(problem.specs):
-        q = weighted_quantiles(points[:, i], weights, [0.025, 0.16, 0.5, 0.84, 0.975])
-        intervals[s.name] = dict(zip(_QUANTILES, map(float, s.from_internal(q))))
-        mean = np.sum(weights * nat[:, i])
-        stderr[s.name] = float(np.sqrt(np.sum(weights * (nat[:, i] - mean) ** 2)))
-    centred = points - np.sum(weights[:, None] * points, axis=0)
-    cov = (weights[:, None] * centred).T @ centred
-    sd = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
-    corr = pd.DataFrame(cov / np.outer(sd, sd), index=problem.names, columns=problem.names)
-    for j, n in enumerate(NOISE_NAMES):
-        q = np.percentile(10 ** noise_draws[:, j], [2.5, 16, 50, 84, 97.5])
-        diag[f"{n}_interval"] = dict(zip(_QUANTILES, map(float, q)))
-
-    converged = is_converged(n_eff, error)
     settings = {
         "name": "nautilus",
         "version": _package_version("nautilus-sampler"),
@@ -551,53 +480,8 @@ def fit_nested(
         "vectorized": True,
         "seed": seed,
     }
-    diag.update(
-        {
-            "log_evidence": log_z,
-            "log_evidence_error": error,
-            "n_effective": n_eff,
-            "n_likelihood_evaluations": int(ns.n_like),
-            "effective_per_evaluation": n_eff / max(int(ns.n_like), 1),
-            "converged": converged,
-            "finished": finished,
-            "rounds": rounds,
-            "n_points": int(points.shape[0]),
-            "n_draws": n_draws,
-            "n_bounds": len(ns.bounds),
-            "seconds": seconds,
-            "sampler": settings,
-            # the MCMC fields, for the consumers that read them: independent weighted draws
-            "ess_bulk": {n: n_eff for n in problem.names},
-            "rhat": {n: float("nan") for n in problem.names},
-            "tau": {n: float("nan") for n in problem.names},
-            "steps_over_tau": float("nan"),
-            "acceptance_mean": float("nan"),
-        }
-    )
-
-    warns = convergence_warnings(n_eff, error, finished, ns.n_like, max_evaluations)
-    if diag["n_pareto_k_bad"]:
-        warns.append(
-            f"PSIS-LOO: {diag['n_pareto_k_bad']} rows with Pareto k > 0.7 (LOO unreliable there)"
-        )
-    warns += [f"ArviZ: {c}" for c in caught if "pareto" not in c.lower()]
-    warns += posterior_bound_warnings(problem, flat) + problem.limit_warnings(point)
-    warns += noise_bound_warnings(noise_draws)
-    warns += identifiability_warnings(problem, intervals)
-
-    predicted = problem.predict(point)
-    metrics = {
-        "n_points": problem.data.n,
-        "n_params": P,
-        **residual_metrics(predicted, problem.data.measured),
-        **information_criteria(problem.weighted_residuals(point), P),
-        **{
-            k: diag[k]
-            for k in ("looic", "looic_se", "waic", "waic_se", "elpd_loo", "elpd_loo_se", "p_loo")
-        },
-        "log_evidence": log_z,
-        "log_evidence_error": error,
-    }
+    draws = (int(points.shape[0]), n_draws)
+    diag = _run_diagnostics(ns, problem, error, rounds, finished, draws, seconds, settings)
     info = {
         "seed": seed,
         "sampler": settings,
@@ -605,7 +489,7 @@ def fit_nested(
         "lsq_chi2": float(lsq.metrics.get("chi2", np.nan)),
         "prior": {**transform.describe(), **noise_prior_description()},
         "point_estimate": "highest-posterior draw (MAP) of the parameters' marginal posterior",
-        "noise_priors": "log-uniform: sigma_magnitude 0.001..0.3, sigma_phase 0.1..50 deg",
+        "noise_priors": noise_priors_text(),
         "noise": (
             "integrated out of the likelihood (Gauss-Legendre in log sigma), drawn given each "
             "draw used for PSIS-LOO"
@@ -613,22 +497,71 @@ def fit_nested(
         "samples": f"{n_draws} draws resampled to equal weights (systematic)",
         "fixed": dict(problem.fixed),
     }
-    return PosteriorResult(
-        model=problem.model.name,
-        chain=problem.chain.name,
-        method="nested",
-        label=problem.data.label,
-        values={k: float(v) for k, v in problem.full_natural(point).items()},
-        stderr=stderr,
-        intervals=intervals,
-        correlations=corr,
-        metrics=metrics,
-        residuals=residual_table(problem, predicted),
-        warnings=warns,
-        info=info,
-        problem=problem,
-        internal=point,
+    which = "all" if n_loo == n_draws else f"{n_loo} (a random choice, seed {seed}) of the"
+    return posterior_result(
+        problem,
+        "nested",
+        point=point,
         samples=flat[:, None, :],
-        noise_samples=10 ** noise_draws[:, None, :],
+        intervals=intervals,
+        stderr=stderr,
+        correlations=corr,
+        noise_draws=noise_draws[:, None, :],
+        loo_draws=loo_draws[:, None, :],
+        loo_noise=noise_draws[:, None, :],
         diagnostics=diag,
+        info=info,
+        sampler_warnings=convergence_warnings(n_eff, error, finished, ns.n_like, max_evaluations),
+        loo_description=(
+            f"{which} {n_draws} draws resampled to equal weights (systematic, seed {seed}) from "
+            "nautilus's weighted draws: one chain"
+        ),
+        extra_metrics={"log_evidence": log_z, "log_evidence_error": error},
     )
+
+
+def _run_diagnostics(ns, problem, error, rounds, finished, draws, seconds, settings) -> dict:
+    """The run's record for a result's ``diagnostics`` (module docstring, **Outputs**): the
+    evidence and its error, the effective draws and evaluations, :func:`is_converged`, the
+    numbers of weighted points and of draws resampled from them (``draws``), the sampler's
+    ``settings``, and emcee's fields for the consumers that read them (independent
+    weighted draws: the ESS is the effective draws', R-hat and autocorrelation times none).
+    """
+    n_eff = float(ns.n_eff)
+    return {
+        "log_evidence": float(ns.log_z),
+        "log_evidence_error": error,
+        "n_effective": n_eff,
+        "n_likelihood_evaluations": int(ns.n_like),
+        "effective_per_evaluation": n_eff / max(int(ns.n_like), 1),
+        "converged": is_converged(n_eff, error),
+        "finished": finished,
+        "rounds": rounds,
+        "n_points": draws[0],
+        "n_draws": draws[1],
+        "n_bounds": len(ns.bounds),
+        "seconds": seconds,
+        "sampler": settings,
+        "ess_bulk": {n: n_eff for n in problem.names},
+        "rhat": {n: float("nan") for n in problem.names},
+        "tau": {n: float("nan") for n in problem.names},
+        "steps_over_tau": float("nan"),
+        "acceptance_mean": float("nan"),
+    }
+
+
+def _weighted_summaries(problem, points, weights):
+    """Intervals (weighted quantiles), standard errors and correlations (weighted moments)
+    of internal ``points`` ``(n, P)`` with normalised ``weights``."""
+    nat = problem.to_natural(points)
+    intervals, stderr = {}, {}
+    for i, s in enumerate(problem.specs):
+        q = weighted_quantiles(points[:, i], weights, [p / 100 for p in PERCENTS])
+        intervals[s.name] = dict(zip(QUANTILES, map(float, s.from_internal(q))))
+        mean = np.sum(weights * nat[:, i])
+        stderr[s.name] = float(np.sqrt(np.sum(weights * (nat[:, i] - mean) ** 2)))
+    centred = points - np.sum(weights[:, None] * points, axis=0)
+    cov = (weights[:, None] * centred).T @ centred
+    sd = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+    corr = pd.DataFrame(cov / np.outer(sd, sd), index=problem.names, columns=problem.names)
+    return intervals, stderr, corr

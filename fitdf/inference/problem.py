@@ -28,7 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from fitdf.chains import get_chain
+from fitdf.chains import get_chain, series_resistance_prior
 from fitdf.data.cores import CoreGeometry
 from fitdf.data.fitdata import FitData, NoiseModel
 from fitdf.errors import ModelError
@@ -38,29 +38,8 @@ from fitdf.params import PER_TABLE, ParamSpec, parameter_base, table_parameter
 __all__ = [
     "FitProblem",
     "physical_spec",
-    "series_resistance_prior",
-    "SOURCE_AND_LEADS_OHM",
-    "R_SERIES_PRIOR_SIGMA",
     "UNDEFINED_PHASE_ERROR",
 ]
-
-#: The circuit's resistance besides the nominal source impedance (the chains' ``r_series``) is
-#: the winding's own, the source's output impedance and the leads. Its prior is log-normal:
-#: median the winding's estimate plus this typical source and leads (ohm; a low-impedance
-#: generator adds some tens of ohms, not hundreds: the thesis's 600 ohm is the resistor of
-#: section V.5, counted as the source impedance) ...
-SOURCE_AND_LEADS_OHM = 25.0
-#: ... and this width (natural log): the winding estimate is good to about 30 % and the source
-#: is unknown, so the 95 % interval, median x/÷ 2.46, runs from the winding alone at 70 % of
-#: its estimate to some 150 ohm of source and leads.
-R_SERIES_PRIOR_SIGMA = 0.45
-
-
-def series_resistance_prior(r_winding_estimate: float) -> tuple[float, float]:
-    """``(median, sigma)`` of the log-normal prior of ``r_series`` (ohm; sigma of its natural
-    log) for a winding of estimated resistance ``r_winding_estimate`` (ohm)."""
-    return float(r_winding_estimate) + SOURCE_AND_LEADS_OHM, R_SERIES_PRIOR_SIGMA
-
 
 #: Phase error (rad) of a row whose predicted DF is exactly 0: the RMS error of a phase
 #: drawn uniformly on the circle. (Counted as 0, a law whose loop never leaves its dead
@@ -94,7 +73,8 @@ class FitProblem:
         The core's turns and dimensions. With it (and a chain in winding units) every
         parameter that has a physical quantity is bounded by material limits
         (:data:`fitdf.data.cores.MATERIAL_LIMITS`) instead of its declared box, and
-        ``r_series`` gets its log-normal prior (:func:`series_resistance_prior`): data at
+        ``r_series`` gets its log-normal prior
+        (:func:`fitdf.chains.series_resistance.series_resistance_prior`): data at
         one source impedance leave a current scale that only the series resistance fixes
         (:mod:`fitdf.data.cores`).
     """

@@ -1,9 +1,11 @@
 """Fit results: immutable records with parameters, uncertainties, residuals and metrics.
 
-:class:`FitResult` comes from least squares, :class:`PosteriorResult` (a subclass) from
-MCMC; both answer the same questions (``values``, ``intervals``, ``metrics``,
-``residuals``, ``predict``, ``summary``, ``to_dict``), so reports and rankings treat
-them alike.
+:class:`FitResult` comes from least squares, :class:`PosteriorResult` (a subclass) from a
+posterior sampler, emcee's MCMC (``method="mcmc"``) or nautilus's nested sampling
+(``method="nested"``, :data:`METHOD_TITLES`); both answer the same questions (``values``,
+``intervals``, ``metrics``, ``residuals``, ``predict``, ``summary``, ``to_dict``), so
+reports and rankings treat them alike. A posterior also leaves in ArviZ's format,
+:meth:`PosteriorResult.to_inference_data`.
 """
 
 from __future__ import annotations
@@ -17,10 +19,18 @@ import pandas as pd
 
 from fitdf._json import clean
 from fitdf.inference.metrics import phase_difference_deg, residual_metrics
+from fitdf.inference.posterior_data import inference_data
 from fitdf.inference.presentation import fit_text
 from fitdf.params import DIMENSIONLESS
 
-__all__ = ["FitResult", "PosteriorResult", "residual_table"]
+__all__ = ["FitResult", "PosteriorResult", "PointwiseLikelihood", "residual_table", "METHOD_TITLES"]
+
+#: What each ``method`` of a result is, in words.
+METHOD_TITLES = {
+    "lsq": "least squares",
+    "mcmc": "emcee MCMC",
+    "nested": "nautilus nested sampling",
+}
 
 
 def residual_table(problem, predicted) -> pd.DataFrame:
@@ -90,6 +100,12 @@ class FitResult:
     def n_params(self) -> int:
         return self.problem.ndim
 
+    @property
+    def method_title(self) -> str:
+        """The method in words (:data:`METHOD_TITLES`): "least squares", "emcee MCMC" or
+        "nautilus nested sampling"."""
+        return METHOD_TITLES.get(self.method, self.method)
+
     def predict(self, amplitude, frequency, source_impedance=0.0, table=None):
         """Predicted measured DF (complex) at arbitrary points, with the best-fit values.
 
@@ -158,8 +174,8 @@ class FitResult:
         """The fit as text, no line longer than ``width``: metrics, then each parameter.
 
         Each parameter is a line of value, unit (``-``: dimensionless), 68% interval
-        (least squares: Gaussian in the optimiser's coordinate; MCMC: the posterior's 16th
-        to 84th percentile) and whether it was held fixed, followed by an indented line
+        (least squares: Gaussian in the optimiser's coordinate; a posterior: its 16th to
+        84th percentile) and whether it was held fixed, followed by an indented line
         saying what it means (wrapped at ``width``).
         """
 
@@ -244,19 +260,69 @@ class FitResult:
 
 
 @dataclass(frozen=True)
+class PointwiseLikelihood:
+    """The draws PSIS-LOO and WAIC were computed on, with their pointwise log-likelihood.
+
+    Arrays are in the layout of :attr:`PosteriorResult.samples`, ``(draw, chain, ...)``
+    (nested sampling: one chain of equal-weight draws).
+
+    Attributes
+    ----------
+    draws : numpy.ndarray
+        Internal parameter vectors ``(draw, chain, P)``.
+    noise : numpy.ndarray
+        The two noise scales of each draw, ``(draw, chain, 2)``: ``sigma_magnitude`` and
+        ``sigma_phase_deg`` (sampled with it, or drawn given it where they were integrated
+        out).
+    log_likelihood : numpy.ndarray
+        The Gaussian log-likelihood of each data row, ``(draw, chain, n_rows)``
+        (:meth:`fitdf.inference.problem.FitProblem.pointwise_loglike`).
+    reff : float
+        The relative efficiency of the draws PSIS used (ArviZ's: 1 for one chain, else the
+        mean ESS of the sampler's coordinates over the number of draws,
+        :func:`fitdf.inference.posterior.relative_efficiency`).
+    description : str
+        Which draws of the posterior these are.
+    """
+
+    draws: np.ndarray = field(repr=False)
+    noise: np.ndarray = field(repr=False)
+    log_likelihood: np.ndarray = field(repr=False)
+    reff: float = 1.0
+    description: str = ""
+
+
+@dataclass(frozen=True)
 class PosteriorResult(FitResult):
-    """An MCMC fit: the FitResult fields from the posterior, plus the chain and diagnostics.
+    """A posterior: the FitResult fields from the posterior's draws, plus the draws and the
+    sampler's diagnostics. ``method`` says which sampler drew it (:data:`METHOD_TITLES`).
 
     ``values`` (and the residuals and metrics) are the highest-posterior draw; the
-    intervals and ``stderr`` come from the posterior samples.
+    intervals and ``stderr`` come from the posterior's draws (nested sampling: its
+    weighted draws).
 
-    ``samples`` are internal coordinates of shape ``(n_draws, n_walkers, P)`` after
-    burn-in and thinning; ``noise_samples`` the fitted noise scales.
+    ``samples`` are internal coordinates of shape ``(n_draws, n_chains, P)``: emcee's
+    walkers after burn-in and thinning, or nested sampling's draws resampled to equal
+    weights (one chain); ``noise_samples`` the noise scales of the draws that have them;
+    ``pointwise`` the draws of PSIS-LOO and WAIC with their pointwise log-likelihood
+    (:class:`PointwiseLikelihood`). :meth:`to_inference_data` gives them in physical
+    units, as ArviZ's InferenceData.
     """
 
     samples: np.ndarray = field(default=None, repr=False, compare=False)
     noise_samples: np.ndarray = field(default=None, repr=False, compare=False)
     diagnostics: dict = field(default_factory=dict)
+    pointwise: PointwiseLikelihood | None = field(default=None, repr=False, compare=False)
+
+    def to_inference_data(self):
+        """This posterior as ArviZ's ``InferenceData``, in physical units.
+
+        The draws of PSIS-LOO and WAIC (:attr:`pointwise`) with their pointwise
+        log-likelihood, the data rows, and the fit's evidence, LOO and prior in its
+        attributes: :func:`fitdf.inference.posterior_data.inference_data` says what each
+        group holds and how ``arviz.loo`` reproduces the LOO-IC reported here.
+        """
+        return inference_data(self)
 
     def flat_internal(self, max_draws: int | None = None, seed: int = 0):
         flat = self.samples.reshape(-1, self.samples.shape[-1])

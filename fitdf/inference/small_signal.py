@@ -58,7 +58,7 @@ def biased_describing_function(values, amplitude, bias, initial="demagnetized", 
     From the state ``initial`` the current ramps to ``bias``, then runs two periods; the
     first harmonic of the second (steady: the wiping-out rule makes the loop closed after
     one period) over ``amplitude``, ``N = (1/(pi A)) Int lambda (sin t + j cos t) dt`` (the
-    sign convention of :func:`fitdf.describing.numerical_describing_function`: lag ``Im N < 0``).
+    sign convention of :func:`fitdf.numerical_df.numerical_describing_function`: lag ``Im N < 0``).
     ``values`` are the law's parameters; ``amplitude`` and ``bias`` broadcast.
     """
     A, I0 = np.broadcast_arrays(np.asarray(amplitude, float), np.asarray(bias, float))

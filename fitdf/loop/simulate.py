@@ -294,7 +294,7 @@ def simulated_describing_function(
 
     Every amplitude (and frequency) is one batch member, run together; the first
     harmonic of the output over the last ``cycles - settle_cycles`` periods gives
-    ``N = (a1 + j b1) / A`` (lead positive, as in :mod:`fitdf.describing`). For a
+    ``N = (a1 + j b1) / A`` (lead positive, as in :mod:`fitdf.numerical_df`). For a
     :class:`~fitdf.loop.elements.CoreElement` in the winding chain this is what the
     analyser of section V.2 read -- the current is whatever the circuit makes it --
     whereas the chain's DF assumes a sinusoidal current; the difference is the error of

@@ -4,7 +4,7 @@ A model is a class with declarative :class:`~fitdf.params.ParamSpec` s and two p
 vectorised class methods:
 
 * :meth:`HysteresisModel.ascending_branch` -- the steady-state loop itself (used by the
-  numerical referee in :mod:`fitdf.describing` and by time-domain simulation);
+  numerical referee in :mod:`fitdf.numerical_df` and by time-domain simulation);
 * :meth:`HysteresisModel.describing_function` -- the closed form ``N(A, f)``; laws
   without one fall back to the numerical engine.
 
@@ -20,7 +20,7 @@ from typing import ClassVar
 import numpy as np
 
 from fitdf._text import TEXT_WIDTH, wrap
-from fitdf.describing import numerical_describing_function
+from fitdf.numerical_df import numerical_describing_function
 from fitdf.params import Parametrized, ParamSpec, split_theta
 
 __all__ = ["HysteresisModel"]

@@ -260,7 +260,7 @@ def plot_cross_impedance(
 
     Top rows: the training data with the fitted curves; bottom rows: the other
     impedance's data with the curves *predicted* from the training fit (dashed), the
-    core's parameters unchanged. As in :func:`fitdf.inference.ranking.cross_impedance`, only the
+    core's parameters unchanged. As in :func:`fitdf.inference.cross_impedance.cross_impedance`, only the
     target table's calibration gain may be refitted: give it per model in
     ``calibration_gains`` (model -> gain; missing or NaN keeps the training gain).
 

@@ -16,13 +16,14 @@ import tempfile
 from pathlib import Path
 
 from fitdf.inference.api import fit
+from fitdf.inference.cross_impedance import cross_impedance
 from fitdf.inference.evidence import prior_sensitivity
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.nested import fit_nested
 from fitdf.inference.problem import FitProblem
-from fitdf.inference.ranking import cross_impedance, cross_validate
+from fitdf.inference.ranking import cross_validate
 from fitdf.report import sections as rs
 
 __all__ = [

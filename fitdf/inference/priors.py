@@ -1,0 +1,71 @@
+"""The priors of a posterior, described in physical units.
+
+Both samplers put the same prior on a fit (:mod:`fitdf.inference.mcmc`,
+:mod:`fitdf.inference.nested`): each parameter uniform on its box in its internal coordinate
+(log-uniform in natural units for a log-scaled parameter), or, for a parameter with a
+Gaussian prior in ``problem.priors`` (the series resistance's log-normal,
+:mod:`fitdf.chains.series_resistance`), that normal truncated to the box; and the two noise
+scales log-uniform on :data:`fitdf.inference.noise.NOISE_BOUNDS`. This module states them:
+:func:`prior_description` (the parameters), :func:`noise_prior_description` and
+:func:`noise_priors_text` (the noise scales), as a result's ``info`` and its InferenceData
+(:meth:`fitdf.inference.results.PosteriorResult.to_inference_data`) give them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES
+
+__all__ = ["prior_description", "noise_prior_description", "noise_priors_text", "NOISE_UNITS"]
+
+#: The noise scales' units (the magnitude's is that of the DF, V/V).
+NOISE_UNITS = {"sigma_magnitude": "-", "sigma_phase_deg": "deg"}
+
+
+def prior_description(specs, priors: dict) -> dict:
+    """Each parameter's prior in its natural units: distribution, bounds, unit (and the
+    median and width of a truncated log-normal or the mean and width of a normal).
+
+    ``specs``: the free parameters' :class:`~fitdf.params.ParamSpec`; ``priors``: name ->
+    ``(centre, sigma)`` of the Gaussian priors in internal coordinates
+    (:attr:`fitdf.inference.problem.FitProblem.priors`).
+    """
+    out = {}
+    for s in specs:
+        rec = {"bounds": [float(s.bounds[0]), float(s.bounds[1])], "unit": s.unit_label}
+        if s.name in priors:
+            centre, sigma = (float(v) for v in priors[s.name])
+            if s.log:
+                rec["distribution"] = "log-normal truncated to the bounds"
+                rec["median"] = float(10.0**centre)
+                rec["sigma_ln"] = float(sigma * np.log(10.0))
+            else:
+                rec["distribution"] = "normal truncated to the bounds"
+                rec["mean"] = centre
+                rec["sigma"] = sigma
+        else:
+            rec["distribution"] = "log-uniform" if s.log else "uniform"
+        out[s.name] = {"distribution": rec.pop("distribution"), **rec}
+    return out
+
+
+def noise_prior_description() -> dict:
+    """The two noise scales' priors (integrated out of the likelihood), as
+    :func:`prior_description` gives the parameters'."""
+    return {
+        name: {
+            "distribution": "log-uniform",
+            "bounds": [float(10.0**lo), float(10.0**hi)],
+            "unit": NOISE_UNITS[name],
+            "integrated_out": True,
+        }
+        for name, (lo, hi) in zip(NOISE_NAMES, NOISE_BOUNDS)
+    }
+
+
+def noise_priors_text() -> str:
+    """The noise scales' priors in one line, from :data:`~fitdf.inference.noise.NOISE_BOUNDS`:
+    ``"log-uniform: sigma_magnitude 0.001..0.3, sigma_phase 0.1..50 deg"``."""
+    (m_lo, m_hi), (p_lo, p_hi) = 10.0**NOISE_BOUNDS
+    return f"log-uniform: sigma_magnitude {m_lo:g}..{m_hi:g}, sigma_phase {p_lo:g}..{p_hi:g} deg"
