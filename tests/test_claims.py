@@ -419,7 +419,7 @@ def test_the_report_states_each_rule_from_its_constant(monkeypatch):
     assert "halved (about the best fit) and doubled (about its centre); a shift" in before
     monkeypatch.setattr(block_outline, "MIN_EFFECTIVE", 401)
     monkeypatch.setattr(block_outline, "MAX_LOG_EVIDENCE_ERROR", 0.25)
-    monkeypatch.setattr(block_outline, "_KASS_RAFTERY", ((2.5, "bare"), (7.0, "positive")))
+    monkeypatch.setattr(block_outline, "KASS_RAFTERY", ((2.5, "bare"), (7.0, "positive")))
     monkeypatch.setattr(outline, "MIN_EFFECTIVE", 402)
     monkeypatch.setattr(outline, "PRIOR_NODES", (-2.0, -1.0, 0.0, 1.0, 2.0))
     monkeypatch.setattr(document, "SENSITIVITY_FACTORS", (0.5, 3.0))

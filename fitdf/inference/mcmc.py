@@ -404,6 +404,11 @@ def fit_mcmc(
 ) -> PosteriorResult:
     """Sample the posterior of ``problem`` starting from the least-squares result ``lsq``.
 
+    One function, read top to bottom as the run goes: the start, the pilot, the production
+    chain and what is kept of it share the random state in that order; each stage that has a
+    job of its own is a helper (:func:`_pilot`, :func:`_production_moves`,
+    :func:`_run_until_converged`, :func:`_map_point`, :func:`_mcmc_info`).
+
     A pilot of rounds of ``pilot_steps`` (default ``min(300, n_steps)``) with ``n_walkers``
     walkers (at least ``2 d + 2``): one of differential evolution, then up to
     ``max_pilot_rounds`` of adapted moves until settled; it adapts the production moves
@@ -444,15 +449,8 @@ def fit_mcmc(
     adapted = moves is None and pilot["draws"] is not None
     free = []  # the coordinates the prior-coordinate move draws (names)
     if adapted:
+        moves, free = _production_moves(pilot, names, rng, logit)
         # independent chains: few and long (R-hat needs each chain long, not many of them)
-        draws = pilot["draws"]
-        moves = production_moves(draws, _pooled(pilot["pool"], draws), rng, logit=logit)
-        free = [
-            names[j]
-            for move, _ in moves
-            if isinstance(getattr(move, "get_proposal", None), PriorCoordinateProposal)
-            for j in move.get_proposal.columns
-        ]
         start = start[: min(n_chains, n_walkers)]
     elif moves is None:
         moves = default_moves()
@@ -501,53 +499,24 @@ def fit_mcmc(
             "acceptance_mean": float(np.mean(sampler.acceptance_fraction)),
             "acceptance_min": float(np.min(sampler.acceptance_fraction)),
             "n_draws": int(flat.shape[0]),
+            "pilot_steps": pilot_steps,
+            "pilot_rounds": pilot_rounds,
+            "max_steps": max_steps,
+            "extend_steps": extend_steps,
+            "steps_needed": given_up,
         }
     )
-    diag["pilot_steps"] = pilot_steps
-    diag["pilot_rounds"] = pilot_rounds
-    diag["max_steps"] = max_steps
-    diag["extend_steps"] = extend_steps
-    diag["steps_needed"] = given_up
     diag["converged"] = is_converged(diag["steps_over_tau"], diag["rhat"], diag["ess_bulk"])
-
-    # Point estimate: the draw of highest posterior (MAP). The per-parameter median can
-    # combine different modes of a multimodal posterior into a point that fits none.
-    log_prob = sampler.get_log_prob(discard=burn)
-    if logpost.box is not None:  # the posterior density of the internal vector, not of z
-        log_prob = log_prob - logpost.box.log_jacobian(sampler.get_chain(discard=burn))
-    best_draw = post_burn.reshape(-1, ndim)[int(np.argmax(log_prob.reshape(-1)))]
-    point = best_draw[:P]
+    point = _map_point(sampler, logpost, burn, post_burn)[:P]
     intervals, stderr, corr = _summaries(problem, flat[:, :P])
-    info = {
-        "seed": seed,
-        "n_steps": n_steps,
-        "n_walkers": n_walkers,
-        "start": "least squares",
-        "pilot_steps": pilot_steps,
-        "moves": (
-            "pilot (discarded): DE 0.8 + DE snooker 0.2, then the production moves adapted "
-            "to it; production: independent chains, kernel-density independence 0.4 (the "
-            "adapted rounds' draws, defensive t) + differential evolution on those draws 0.4 "
-            "+ random walk 0.2 (the last round's covariance); where the pilot leaves "
-            "coordinates free, a draw of one of them from its prior 0.2, the others x 0.8"
-            if adapted
-            else "given"
-            if pilot_steps > 0
-            else "DE 0.8 + DE snooker 0.2 (no pilot)"
-        ),
-        "coordinates": "logit of the prior box" if logit else "internal",
-        "drawn_from_prior": free,
-        "point_estimate": "highest-posterior draw (MAP)"
-        + (" of the parameters' marginal posterior" if marginal_noise else ""),
-        "noise_priors": noise_priors_text(),
-        "noise": (
-            "integrated out while sampling (Gauss-Legendre in log sigma), drawn given each "
-            "draw used for PSIS-LOO"
-            if marginal_noise
-            else "sampled"
-        ),
-        "fixed": dict(problem.fixed),
-    }
+    info = _mcmc_info(problem, seed, n_steps, n_walkers, pilot_steps, adapted, free, logit)
+    info["point_estimate"] += " of the parameters' marginal posterior" if marginal_noise else ""
+    info["noise"] = (
+        "integrated out while sampling (Gauss-Legendre in log sigma), drawn given each "
+        "draw used for PSIS-LOO"
+        if marginal_noise
+        else "sampled"
+    )
     n_loo, n_chains_loo = loo_draws.shape[:2]
     return posterior_result(
         problem,
@@ -573,6 +542,63 @@ def fit_mcmc(
             f"{samples.shape[0]} kept after a burn-in of {burn} steps and thinning by {thin}"
         ),
     )
+
+
+def _production_moves(pilot: dict, names: list, rng, logit: bool) -> tuple[list, list]:
+    """The production moves adapted to the pilot's draws, and the coordinates the
+    prior-coordinate move draws (by name)."""
+    draws = pilot["draws"]
+    moves = production_moves(draws, _pooled(pilot["pool"], draws), rng, logit=logit)
+    free = [
+        names[j]
+        for move, _ in moves
+        if isinstance(getattr(move, "get_proposal", None), PriorCoordinateProposal)
+        for j in move.get_proposal.columns
+    ]
+    return moves, free
+
+
+def _mcmc_info(problem, seed, n_steps, n_walkers, pilot_steps, adapted, free, logit) -> dict:
+    """The run's record (``PosteriorResult.info``) but for how the noise was handled."""
+    return {
+        "seed": seed,
+        "n_steps": n_steps,
+        "n_walkers": n_walkers,
+        "start": "least squares",
+        "pilot_steps": pilot_steps,
+        "moves": _moves_text(adapted, pilot_steps),
+        "coordinates": "logit of the prior box" if logit else "internal",
+        "drawn_from_prior": free,
+        "point_estimate": "highest-posterior draw (MAP)",
+        "noise_priors": noise_priors_text(),
+        "noise": None,
+        "fixed": dict(problem.fixed),
+    }
+
+
+def _map_point(sampler, logpost, burn: int, post_burn: np.ndarray) -> np.ndarray:
+    """The kept draw of highest posterior density (MAP), internal coordinates.
+
+    Not the per-parameter median: that can combine different modes of a multimodal
+    posterior into a point that fits none.
+    """
+    log_prob = sampler.get_log_prob(discard=burn)
+    if logpost.box is not None:  # the posterior density of the internal vector, not of z
+        log_prob = log_prob - logpost.box.log_jacobian(sampler.get_chain(discard=burn))
+    return post_burn.reshape(-1, post_burn.shape[-1])[int(np.argmax(log_prob.reshape(-1)))]
+
+
+def _moves_text(adapted: bool, pilot_steps: int) -> str:
+    """The sampler's moves, in words (``info["moves"]``)."""
+    if adapted:
+        return (
+            "pilot (discarded): DE 0.8 + DE snooker 0.2, then the production moves adapted "
+            "to it; production: independent chains, kernel-density independence 0.4 (the "
+            "adapted rounds' draws, defensive t) + differential evolution on those draws 0.4 "
+            "+ random walk 0.2 (the last round's covariance); where the pilot leaves "
+            "coordinates free, a draw of one of them from its prior 0.2, the others x 0.8"
+        )
+    return "given" if pilot_steps > 0 else "DE 0.8 + DE snooker 0.2 (no pilot)"
 
 
 def _summaries(problem, flat):

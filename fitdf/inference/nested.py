@@ -366,6 +366,52 @@ def run_nautilus(
         target = next_effective_target(sampler.n_eff, error)
 
 
+def _highest_posterior(ns, transform: PriorTransform, P: int) -> np.ndarray:
+    """The point estimate: the highest posterior density (likelihood x prior density) of
+    every point evaluated, the exploration's included."""
+    every = transform(np.concatenate(ns.points)[:, :P])  # (a padded cube has a column more)
+    log_post = np.concatenate(ns.log_l) + transform.log_density(every)
+    return every[int(np.argmax(log_post))]
+
+
+def _sampler_settings(
+    ns, seed, n_live, n_networks, f_live, n_effective, max_evaluations, discard_exploration
+) -> dict:
+    """nautilus's settings as run (``info["sampler"]``)."""
+    return {
+        "name": "nautilus",
+        "version": _package_version("nautilus-sampler"),
+        "n_live": n_live,
+        "n_networks": n_networks,
+        "n_batch": int(ns.n_batch),
+        "f_live": f_live,
+        "n_eff_target": n_effective,
+        "max_evaluations": max_evaluations,
+        "discard_exploration": discard_exploration,
+        "vectorized": True,
+        "seed": seed,
+    }
+
+
+def _nested_info(problem, lsq, transform, seed: int, settings: dict, n_draws: int) -> dict:
+    """The run's record (``PosteriorResult.info``)."""
+    return {
+        "seed": seed,
+        "sampler": settings,
+        "start": "the prior (nested sampling); the chain's solver starts cold",
+        "lsq_chi2": float(lsq.metrics.get("chi2", np.nan)),
+        "prior": {**transform.describe(), **noise_prior_description()},
+        "point_estimate": "highest-posterior draw (MAP) of the parameters' marginal posterior",
+        "noise_priors": noise_priors_text(),
+        "noise": (
+            "integrated out of the likelihood (Gauss-Legendre in log sigma), drawn given each "
+            "draw used for PSIS-LOO"
+        ),
+        "samples": f"{n_draws} draws resampled to equal weights (systematic)",
+        "fixed": dict(problem.fixed),
+    }
+
+
 def fit_nested(
     problem: FitProblem,
     lsq: FitResult,
@@ -451,11 +497,7 @@ def fit_nested(
     n_eff = float(ns.n_eff)
     log_z = float(ns.log_z)
 
-    # point estimate: the highest posterior density (likelihood x prior density) of every
-    # point evaluated, the exploration's included
-    every = transform(np.concatenate(ns.points)[:, :P])  # (a padded cube has a column more)
-    log_post = np.concatenate(ns.log_l) + transform.log_density(every)
-    point = every[int(np.argmax(log_post))]
+    point = _highest_posterior(ns, transform, P)
 
     n_draws = int(n_draws or max(1000, int(np.ceil(n_eff))))
     idx = systematic_resample(weights, n_draws, rng)
@@ -467,36 +509,12 @@ def fit_nested(
     noise_draws = loglike.noise.draw(radial, tang, rng)  # log10 (n, 2)
     intervals, stderr, corr = _weighted_summaries(problem, points, weights)
 
-    settings = {
-        "name": "nautilus",
-        "version": _package_version("nautilus-sampler"),
-        "n_live": n_live,
-        "n_networks": n_networks,
-        "n_batch": int(ns.n_batch),
-        "f_live": f_live,
-        "n_eff_target": n_effective,
-        "max_evaluations": max_evaluations,
-        "discard_exploration": discard_exploration,
-        "vectorized": True,
-        "seed": seed,
-    }
+    settings = _sampler_settings(
+        ns, seed, n_live, n_networks, f_live, n_effective, max_evaluations, discard_exploration
+    )
     draws = (int(points.shape[0]), n_draws)
     diag = _run_diagnostics(ns, problem, error, rounds, finished, draws, seconds, settings)
-    info = {
-        "seed": seed,
-        "sampler": settings,
-        "start": "the prior (nested sampling); the chain's solver starts cold",
-        "lsq_chi2": float(lsq.metrics.get("chi2", np.nan)),
-        "prior": {**transform.describe(), **noise_prior_description()},
-        "point_estimate": "highest-posterior draw (MAP) of the parameters' marginal posterior",
-        "noise_priors": noise_priors_text(),
-        "noise": (
-            "integrated out of the likelihood (Gauss-Legendre in log sigma), drawn given each "
-            "draw used for PSIS-LOO"
-        ),
-        "samples": f"{n_draws} draws resampled to equal weights (systematic)",
-        "fixed": dict(problem.fixed),
-    }
+    info = _nested_info(problem, lsq, transform, seed, settings, n_draws)
     which = "all" if n_loo == n_draws else f"{n_loo} (a random choice, seed {seed}) of the"
     return posterior_result(
         problem,

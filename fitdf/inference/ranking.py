@@ -51,6 +51,7 @@ from fitdf.models import get_model, model_names
 
 __all__ = [
     "compare",
+    "KASS_RAFTERY",
     "Comparison",
     "compare_fits",
     "fit_all",
@@ -90,7 +91,7 @@ POSTERIOR_METHODS = ("mcmc", "nested")
 
 #: Kass and Raftery (J. Am. Stat. Assoc. 90 (1995) 773) on ``2 ln B``: the evidence a Bayes
 #: factor ``B`` gives for the better model, by its upper bounds.
-_KASS_RAFTERY = (
+KASS_RAFTERY = (
     (TIE_TWO_LN_B, "not worth more than a bare mention"),
     (6.0, "positive"),
     (10.0, "strong"),
@@ -103,7 +104,7 @@ def bayes_factor_scale(log_bayes_factor: float) -> str:
     "positive", 6-10 "strong", above 10 "very strong" (Kass & Raftery 1995, after Jeffreys
     1961)."""
     two = 2.0 * abs(float(log_bayes_factor))
-    return next((label for bound, label in _KASS_RAFTERY if two < bound), "very strong")
+    return next((label for bound, label in KASS_RAFTERY if two < bound), "very strong")
 
 
 def best_by_aicc(results):

@@ -14,7 +14,7 @@ from fitdf.inference.convergence import (
     MIN_STEPS_OVER_TAU,
     RHAT_MAX,
 )
-from fitdf.inference.ranking import _KASS_RAFTERY
+from fitdf.inference.ranking import KASS_RAFTERY
 from fitdf.inference.selection import TIE_AICC
 from fitdf.plots.posterior import LEVELS as CORNER_LEVELS
 from fitdf.report.conclusion import OUTSIDE
@@ -516,7 +516,7 @@ def _kass_raftery_scale() -> str:
     """The Kass-Raftery scale in words, from its bounds (``below 2 not worth more than a bare
     mention, 2-6 positive, 6-10 strong, above 10 very strong``)."""
     parts, low = [], None
-    for bound, label in _KASS_RAFTERY:
+    for bound, label in KASS_RAFTERY:
         parts.append(f"below {bound:g} {label}" if low is None else f"{low:g}-{bound:g} {label}")
         low = bound
     return ", ".join(parts + [f"above {low:g} very strong"])

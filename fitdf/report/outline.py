@@ -11,7 +11,7 @@ cycles, the audit, the thesis's curves and the models -- as a list of document b
 from __future__ import annotations
 
 from fitdf.inference.convergence import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
-from fitdf.inference.ranking import PRIOR_NODES
+from fitdf.inference.cross_impedance import PRIOR_NODES
 from fitdf.plots.summary import CAPTION as SUMMARY_CAPTION
 from fitdf.report.block_outline import _block_blocks
 from fitdf.report.claims import text
