@@ -86,6 +86,17 @@ def test_population_df_is_the_fourier_integral_of_its_loop(a):
     assert N.imag < 0  # relay loops run anticlockwise only
 
 
+def test_population_df_down_to_zero_amplitude_is_rayleighs():
+    """Down to underflow (the current solver tries 1e-44 A and less) the closed form is
+    Rayleigh's ``gamma_R A (1 - 4j / (3 pi))``, ``gamma_R = 2 / (pi i_ray^2)`` per unit flux,
+    without a division by ``A^2`` or a ``Phi(a) - 1/2`` that rounds to 0."""
+    s = 1.5e-4
+    A = np.array([1e-300, 1e-44, 1e-20, 1e-12])
+    expected = 2 / (math.pi * s * s) * A * (1 - 1j * RAYLEIGH_RATIO)
+    np.testing.assert_allclose(rayleigh_population_df(A, i_ray=s), expected, rtol=1e-12)
+    assert rayleigh_population_df(0.0, i_ray=s) == 0.0
+
+
 @pytest.mark.parametrize("name", list(THETA))
 def test_law_df_matches_the_numerical_referee(name):
     th = THETA[name]

@@ -62,7 +62,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import ive, ndtr
+from scipy.special import erf, ive, ndtr
 
 from fitdf.models._preisach_everett import (
     _reversible_width,
@@ -105,13 +105,16 @@ def rayleigh_population_branch(x, amplitude, *, i_ray):
 
 
 def _quadrature_factor(a):
-    """``F(a) = Int_{-a}^{a} Phi(u) phi(u) u du`` (module docstring), series at small ``a``."""
+    """``F(a) / a^2``, ``F(a) = Int_{-a}^{a} Phi(u) phi(u) u du`` (module docstring); the series
+    at small ``a`` (no cancellation, no underflow of ``a^2``)."""
     a = np.asarray(a, dtype=float)
     a2 = a * a
-    series = a * a2 * (1.0 / 3.0 - a2 * (2.0 / 15.0 - a2 / 30.0)) / math.pi
-    closed = (2.0 * ndtr(math.sqrt(2.0) * a) - 1.0) / (2.0 * math.sqrt(math.pi)) - np.exp(
-        -0.5 * a2
-    ) / _SQRT_2PI * (2.0 * ndtr(a) - 1.0)
+    series = a * (1.0 / 3.0 - a2 * (2.0 / 15.0 - a2 / 30.0)) / math.pi
+    big = np.where(a < _SERIES_A, 1.0, a)  # the closed form where it is used
+    closed = (
+        (2.0 * ndtr(math.sqrt(2.0) * big) - 1.0) / (2.0 * math.sqrt(math.pi))
+        - np.exp(-0.5 * big * big) / _SQRT_2PI * erf(big / math.sqrt(2.0))
+    ) / (big * big)
     return np.where(a < _SERIES_A, series, closed)
 
 
@@ -120,14 +123,15 @@ def rayleigh_population_df(amplitude, *, i_ray):
 
     ``Re = (4 / (i_ray sqrt(2 pi))) (Phi(a) - 1/2) e^(-a^2/4) [I0 + I1](a^2/4)``,
     ``Im = -(8 i_ray / (pi A^2)) F(a)``, ``a = A / i_ray`` (module docstring); 0 at ``A = 0``.
+    ``Phi(a) - 1/2`` is taken as ``erf(a / sqrt 2) / 2`` and ``F / a^2`` as such (both exact
+    to the last digits down to ``A = 0``).
     """
     A = np.abs(np.asarray(amplitude, dtype=float))
     i_ray = np.asarray(i_ray, dtype=float)
     a = A / i_ray
     z = 0.25 * a * a
-    re = 4.0 / (i_ray * _SQRT_2PI) * (ndtr(a) - 0.5) * (ive(0, z) + ive(1, z))
-    safe = np.where(A > 0, A, 1.0)
-    im = np.where(A > 0, -8.0 * i_ray / (math.pi * safe * safe) * _quadrature_factor(a), 0.0)
+    re = 2.0 / (i_ray * _SQRT_2PI) * erf(a / math.sqrt(2.0)) * (ive(0, z) + ive(1, z))
+    im = -8.0 / (math.pi * i_ray) * _quadrature_factor(a)
     return re + 1j * im
 
 
