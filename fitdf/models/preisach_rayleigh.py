@@ -44,8 +44,8 @@ integral; the quadrature part integrates by parts (``u phi = -phi'``)::
 ``gamma_R = 2 lambda_R / (pi i_ray^2)``, Rayleigh's loop (eq 3.7) exactly; the law's
 Rayleigh constant is ``gamma = gamma_R + (1 - f_ray) gamma_G`` (:func:`rayleigh_constant`)
 and its initial inductance ``l_rev``. Rayleigh's region ends near ``A ~ i_ray``: beyond it
-the population saturates (``Re N_R ~ 4 lambda_R / (A sqrt(2 pi))`` falls as ``1/A``, its
-loop area tends to ``8 lambda_R i_ray / sqrt(pi)``), as the Rayleigh region of real alloys
+the population saturates (``Re N_R -> 4 lambda_R / (pi A)``, a relay's, and its loop area
+``-pi A^2 Im N_R`` tends to ``4 lambda_R i_ray / sqrt(pi)``), as the Rayleigh region of real alloys
 ends near their coercive field. Material constants (``N`` turns, path ``l_e``, section
 ``A_e``): ``mu_i = l_rev l_e / (mu_0 N^2 A_e)``, ``eta = gamma l_e^2 / (N^3 A_e)`` of
 ``B = mu_i H + eta H^2`` (T m^2/A^2) and ``nu = 2 eta / mu_0`` of ``mu = mu_i + nu H``.
