@@ -125,11 +125,11 @@ def cmd_audit(args):
 def cmd_models(args):
     from fitdf._json import clean
     from fitdf.chains import CHAINS
-    from fitdf.models import MODELS, law_name
+    from fitdf.models import ADDITIONAL_MODELS, MODELS, get_model, law_name
     from fitdf.params import DIMENSIONLESS
 
     chosen = None if args.law is None else _law_names([args.law], "LAW", law_name)[0]
-    laws = [MODELS[chosen]] if chosen is not None else list(MODELS.values())
+    laws = [get_model(chosen)] if chosen is not None else list(MODELS.values())
     if args.json:
         chains = [
             {"name": c.name, "title": c.title, "parameters": [p.name for p in c.params]}
@@ -139,6 +139,8 @@ def cmd_models(args):
         return 0
     if args.law is None:
         _out("\n\n".join(m.text(brief=True) for m in laws))
+        _out("\nLaws fitted only when named (fitdf fit --models NAME):")
+        _out("\n\n".join(m.text(brief=True) for m in ADDITIONAL_MODELS.values()))
         _out("\nMeasurement chains:")
         _out("\n".join(c.text(brief=True) for c in CHAINS.values()))
         _out("\n'fitdf models LAW' explains one law, its parameters and the chains' parameters.")

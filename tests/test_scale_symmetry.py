@@ -21,7 +21,7 @@ from fitdf.data.cores import core_geometry
 from fitdf.data.resolve import resolve_data
 from fitdf.inference import cross_impedance
 from fitdf.inference.problem import FitProblem
-from fitdf.models import MODELS, get_model
+from fitdf.models import ADDITIONAL_MODELS, MODELS, get_model
 from fitdf.params import current_scaled
 
 V = np.array([0.02, 0.2, 0.6, 2.0, 5.0])
@@ -44,6 +44,16 @@ THETA = {
         "f_rev": 0.11,
     },
     "jiles_atherton": {"lambda_s": 0.044, "a": 3.6e-4, "k": 8.7e-4, "c": 0.16, "zeta": 0.9},
+    "preisach_rayleigh": {
+        "lambda_s": 0.037,
+        "i_c": 3.5e-4,
+        "sigma_c": 0.34,
+        "i_i": 1e-4,
+        "l_rev": 5.8,
+        "f_rev": 0.11,
+        "f_ray": 0.1,
+        "i_ray": 2e-4,
+    },
 }
 
 
@@ -60,7 +70,7 @@ def _df(chain, model, values, chain_values):
     return c.predict(model, V, F, R_SOURCE, m_theta, c_theta)
 
 
-@pytest.mark.parametrize("name", list(MODELS))
+@pytest.mark.parametrize("name", [*MODELS, *ADDITIONAL_MODELS])
 def test_every_law_is_closed_under_a_current_scale(name):
     model, values = _theta(name)
     scaled = current_scaled(model.params, values, SCALE)
