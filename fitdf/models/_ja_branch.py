@@ -340,6 +340,9 @@ def _branch_rows(P, tol, nmin, max_cap, G, tabs, row_tab, x_flat, x_index, out, 
     after the last one found (the rows of consecutive calls come in the same order), takes
     those nodes, the bits a solve would give. With ``keep``, returns this call's rows packed
     the same way (rows without nodes keyed -1, which no row matches), else empty arrays.
+
+    One compiled loop over the rows: the memo's cursor and the packed output are carried
+    from row to row, which a split into numba functions would pass back and forth.
     """
     A, lam, a, k, c, kap = P
     memo_key, memo_buf, memo_off = memo
