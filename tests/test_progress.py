@@ -16,7 +16,7 @@ from fitdf.report import costs, refresh_costs
 from fitdf.report.build import printed_blocks
 from fitdf.report.costs import phase_labels
 from fitdf.report.progress import Phase, RunProgress, duration_text, schedule_length
-from fitdf.report.settings import ReportSettings
+from fitdf.report.settings import CORE_BLOCKS, RUNNER_UP_AICC_GAP, ReportSettings
 from fitdf.report.upgrade import read_results
 
 COMMITTED = Path(__file__).resolve().parents[1] / "reports" / "results.json"
@@ -279,11 +279,28 @@ def test_the_committed_run_is_planned_as_it_ran():
     assert f"About {duration_text(total)} with 2 workers" in line
     assert f"{took} for `fitdf report --full`" in line
     assert "first jobs finish" in line
-    # the default run, from the same jobs: its six posteriors are among them
-    default, _ = _plan(ReportSettings.for_run())
-    assert [len(p.planned) for p in default] == [56, 47, 12]
-    # (about 20 min measured for the default run; planned from the --full run's jobs)
-    assert 15 * 60 < costs.estimate(default, 2) < 25 * 60
+    # the default run, from the same jobs: the best law of each core, and the runner-up where
+    # the committed report's AICc gap is below the threshold
+    settings = ReportSettings.for_run()
+    default, what = _plan(settings)
+    fits = read_results(COMMITTED)["blocks"] if COMMITTED.exists() else None
+    sampled = {}
+    for key in CORE_BLOCKS:
+        aicc = costs.COMMITTED_AICC[key]
+        if fits is not None:  # the table is the committed report's ranking
+            assert aicc == {r["model"]: r["aicc"] for r in fits[key]["ranking_lsq"]}
+        best, second = list(aicc)[:2]
+        sampled[key] = [best] + [second] * (aicc[second] - aicc[best] < RUNNER_UP_AICC_GAP)
+    n = sum(map(len, sampled.values()))
+    assert what[1].startswith(f"{n} posteriors and evidence (nested sampling; a runner-up's")
+    # its second phase: the --full run's less those posteriors, cross-validations and refits
+    assert [len(p.planned) for p in default] == [56, 62 - 21 + n, 12]
+    nested = sorted(s for k, s in default[1].planned if k == "nested")
+    assert nested == sorted(costs._SECONDS[f"nested {b} {m}"] for b in sampled for m in sampled[b])
+    # with every runner-up sampled (no threshold), as the default run was planned before
+    every, _ = _plan(replace(settings, posterior_runner_up_below=None))
+    assert [len(p.planned) for p in every] == [56, 62 - 21 + 2 * len(CORE_BLOCKS), 12]
+    assert costs.estimate(default, 2) < costs.estimate(every, 2)
 
 
 def test_expected_seconds_of_jobs_the_table_lacks():
@@ -406,7 +423,8 @@ def test_the_refresh_command_writes_the_file_the_estimates_read(tmp_path, monkey
     assert written == costs.cost_record(results) and written["run"]["cores"] == 4
     assert "4 jobs of `fitdf report --full`, 1235 s on 2 workers" in capsys.readouterr().out
     # the package's own file has that shape, and its jobs are the table the estimates read
-    assert set(costs.COMMITTED) == {"run", "settings", "jobs_s"}
+    assert set(costs.COMMITTED) == {"run", "settings", "jobs_s", "aicc"}
+    assert costs.COMMITTED_AICC is costs.COMMITTED["aicc"]
     assert (
         costs.expected_seconds(("nested", "B.4", "preisach"))
         == costs.COMMITTED["jobs_s"]["nested B.4 preisach"]

@@ -82,6 +82,7 @@ from fitdf.report.progress import RunProgress
 from fitdf.report.settings import (
     LIMIT_CYCLE_BLOCKS,
     ReportSettings,
+    posterior_laws,
     run_record,
     settings_record,
 )
@@ -185,12 +186,11 @@ def _limit_job(settings, seed, models, lsq) -> dict:
 
 
 def _posterior_jobs(settings, seed, key, ranked, lsq) -> dict:
-    """The posterior jobs of block ``key``'s best laws (``ranked``: its laws, best first)."""
+    """The posterior jobs of block ``key``'s best laws (``ranked``: its laws, best first;
+    which of them: :func:`~fitdf.report.settings.posterior_laws`)."""
     jobs = {}
-    sampled = [m for m in ranked if m not in settings.posterior_skip]
-    posterior = settings.posterior_blocks is None or key in settings.posterior_blocks
-    n_sampled = settings.posterior_top if "posterior" in settings.methods and posterior else 0
-    for i, m in enumerate(_top(sampled, n_sampled)):
+    aicc = {m: lsq[(key, m)].metrics["aicc"] for m in ranked}
+    for i, m in enumerate(posterior_laws(settings, key, aicc)):
         if settings.sampler == "nested":
             jobs[("nested", key, m)] = (
                 job.job_nested,

@@ -18,7 +18,10 @@ The file, and refreshing it
 Jobs not known yet
     The second phase's jobs depend on the least-squares ranking (posteriors, cross-validation
     and cross-impedance for each block's best laws): :func:`unknown_laws` plans ``n`` of them
-    with the committed report's jobs of that kind on that block.
+    with the committed report's jobs of that kind on that block. Which laws get posteriors
+    depends on their AICc gaps too (:func:`fitdf.report.settings.posterior_laws`): the plan
+    takes them from the committed report's least-squares AICc (``aicc``: the same rows,
+    starts and seed give the same fits), of the laws it ranked.
 """
 
 from __future__ import annotations
@@ -31,16 +34,19 @@ from fitdf.inference.evidence import SAMPLED_FACTORS
 from fitdf.plots.thesis_graphs import THESIS_GRAPHS
 from fitdf.report.document import box_factors
 from fitdf.report.progress import Phase, duration_text, schedule_length
+from fitdf.report.settings import posterior_laws
 from fitdf.report.upgrade import upgrade
 
 __all__ = [
     "COMMITTED",
     "COMMITTED_RUN",
     "COMMITTED_SETTINGS",
+    "COMMITTED_AICC",
     "COST_SETTINGS",
     "expected_seconds",
     "job_kind",
     "unknown_laws",
+    "planned_posteriors",
     "plan",
     "phase_labels",
     "estimate",
@@ -76,6 +82,8 @@ COMMITTED = json.loads(COMMITTED_FILE.read_text(encoding="utf-8"))
 COMMITTED_RUN = COMMITTED["run"]
 #: The committed report's settings that set its jobs' costs (:data:`COST_SETTINGS`).
 COMMITTED_SETTINGS = COMMITTED["settings"]
+#: The committed report's least-squares AICc of each law on each block, best first.
+COMMITTED_AICC = COMMITTED.get("aicc") or {}
 
 #: First words of the keys of the jobs that are not least-squares fits.
 _KINDS = (
@@ -249,6 +257,7 @@ def plan(settings, models, blocks, lsq_keys, folds, labels, printed=()) -> tuple
         if settings.posterior_blocks in (None, ()) or b in settings.posterior_blocks
     ]
     n["sens"] = min(settings.sensitivity_top, n["sampled"]) if kind == "nested" else 0
+    n["laws"] = {b: planned_posteriors(settings, models, b) for b in posterior}
     cross = list(settings.cross) if n["cross"] else []
     second = _second_phase_jobs(settings, models, blocks, n, kind, posterior, printed, cross)
     cross_figures = [("cross", c, tr, te) for c, tr, te, train, _ in cross if train in blocks]
@@ -286,13 +295,39 @@ def _counts(settings, models) -> dict:
     }
 
 
+def planned_posteriors(settings, models, block: str) -> list[str] | int:
+    """The laws whose posteriors a run of ``settings`` is planned to sample on ``block``: those
+    :func:`~fitdf.report.settings.posterior_laws` picks from the committed report's AICc
+    (:data:`COMMITTED_AICC`) of the laws of ``models`` it ranked; where it ranked none of
+    them, the number of laws ``posterior_top`` takes.
+
+    Examples
+    --------
+    >>> from fitdf.report.settings import ReportSettings
+    >>> laws = ["preisach", "jiles_atherton", "cubic_hc", "rayleigh"]
+    >>> planned_posteriors(ReportSettings.for_run(full=True), laws, "B.4")
+    ['preisach', 'jiles_atherton', 'cubic_hc']
+    >>> planned_posteriors(ReportSettings.for_run(), laws, "deltamax-joint")
+    ['preisach']
+    """
+    known = {m: a for m, a in COMMITTED_AICC.get(block, {}).items() if m in models}
+    if not known:
+        return _counts(settings, models)["sampled"]
+    return posterior_laws(settings, block, known)
+
+
 def _second_phase_jobs(settings, models, blocks, n, kind, posterior, printed, cross) -> list:
     """The second phase's ``(kind, expected seconds)`` jobs of :func:`plan`, in the order the
-    run submits them (``n``: :func:`_counts` with ``sens``)."""
+    run submits them (``n``: :func:`_counts` with ``sens`` and the posteriors' ``laws`` by
+    block, :func:`planned_posteriors`)."""
     second = [("limit", expected_seconds(("limit",)))] if settings.limit_cycles else []
     for b in blocks:
-        n_post = n["sampled"] if b in posterior else 0
-        posteriors = unknown_laws(kind, b, n_post)
+        laws = n["laws"].get(b, 0)
+        posteriors = (
+            [(kind, expected_seconds((kind, b, m))) for m in laws]
+            if isinstance(laws, list)
+            else unknown_laws(kind, b, laws)
+        )
         # a posterior with the prior's sensitivity samples once more (the box doubled; the
         # halved box is restricted from its draws) in the same job
         posteriors = [(k, s * (1 + len(SAMPLED_FACTORS) * (i < n["sens"]))) for i, (k, s) in
@@ -315,14 +350,20 @@ def _what(settings, models, blocks, lsq_keys, folds, n, kind, posterior, cross) 
         f"{_plural(len(lsq_keys), 'least-squares fit')} ({_plural(len(models), 'law')} on "
         f"{_plural(len(blocks), 'block')})"
     ]
-    n_sampled = n["sampled"]
-    if n_sampled and posterior:
+    counts = [len(v) if isinstance(v, list) else v for v in n["laws"].values()]
+    if n["sampled"] and sum(counts):
+        n_sens = sum(min(settings.sensitivity_top, c) for c in counts)
+        below = settings.posterior_runner_up_below
         what.append(
-            _plural(n_sampled * len(posterior), "posterior")
-            + (" and evidence (nested sampling)" if kind == "nested" else " (MCMC)")
+            _plural(sum(counts), "posterior")
+            + (" and evidence (nested sampling" if kind == "nested" else " (MCMC")
             + (
-                f", {_plural(min(settings.sensitivity_top, n_sampled) * len(posterior), 'evidence')}"
-                f" again with the prior box {box_factors()}"
+                f"; a runner-up's only where its AICc is within {below:g} of the best's)"
+                if below is not None and n["sampled"] > 1
+                else ")"
+            )
+            + (
+                f", {_plural(n_sens, 'evidence')} again with the prior box {box_factors()}"
                 if kind == "nested" and settings.sensitivity_top
                 else ""
             )
@@ -383,7 +424,9 @@ def cost_record(results: dict, known: dict | None = None) -> dict:
     :data:`COST_SETTINGS`; ``jobs_s``: the seconds of each job (``timing.jobs_s``), a
     posterior job that also sampled its prior's box again (doubled, and halved where the
     posterior's draws could not give it) at its seconds over its runs (the plan multiplies
-    them back for such a job), so that every ``nested`` entry is one posterior's seconds.
+    them back for such a job), so that every ``nested`` entry is one posterior's seconds;
+    ``aicc``: each block's least-squares AICc of each law, best first (``ranking_lsq``), from
+    which the plan tells which laws a run samples (:func:`planned_posteriors`).
     """
     results = upgrade(results)
     timing = results["timing"]
@@ -399,6 +442,10 @@ def cost_record(results: dict, known: dict | None = None) -> dict:
         "run": {k: (known or {}).get(k) if v is None else v for k, v in run.items()},
         "settings": {k: results["settings"].get(k) for k in COST_SETTINGS},
         "jobs_s": {k: round(s / _sampler_runs(results, k), 2) for k, s in jobs.items()},
+        "aicc": {
+            key: {row["model"]: row["aicc"] for row in block.get("ranking_lsq") or []}
+            for key, block in results["blocks"].items()
+        },
     }
 
 

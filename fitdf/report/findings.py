@@ -3,7 +3,8 @@
 
 Per block: the best law (:func:`fitdf.report.criteria.best_law`, the lowest AICc) with its
 margin and residual; what the posteriors' criteria (the evidence, LOO-IC) say, each by its
-own numbers; where the criteria disagree; the hardest rows. Then where all laws fail, the
+own numbers; why the runner-up has no posterior where its AICc gap was too wide to sample it
+(:func:`fitdf.report.settings.posterior_laws`); where the criteria disagree; the hardest rows. Then where all laws fail, the
 posteriors' convergence, the cross-impedance predictions, the small-signal test, the joint
 fits and the physics section's sentences (:mod:`fitdf.report.physics_claims`).
 :func:`findings` lists the statements as paragraphs of claims, or as plain sentences for the
@@ -28,6 +29,7 @@ from fitdf.report.audit_claims import audit_findings
 from fitdf.report.claims import paragraph, rule, say, span
 from fitdf.report.conclusion import LSQ, error_percent
 from fitdf.report.criteria import AICC_TIE, LOO_TIE_SE, best_by, best_law, known
+from fitdf.report.settings import EVIDENCE_SHORTFALL
 
 __all__ = ["findings", "block_claims"]
 
@@ -156,6 +158,46 @@ def _posteriors(models, aicc, post_models, log_evidence, looic, elpd_diff, elpd_
 
 
 @rule(
+    "block.runner_up",
+    below="settings/posterior_runner_up_below",
+    top="settings/posterior_top",
+    skip="settings/posterior_skip",
+    **_BLOCK,
+    **_BLOCK_POST,
+)
+def _runner_up(below, top, skip, models, aicc, post_models, log_evidence, looic, block):
+    """Why a block's runner-up has no posterior: its AICc gap is at or above the settings'
+    threshold (:data:`~fitdf.report.settings.RUNNER_UP_AICC_GAP`), and a reversal by the
+    evidence would need a shortfall of half that gap, against the most measured
+    (:data:`~fitdf.report.settings.EVIDENCE_SHORTFALL`)."""
+    if below is None or not post_models or (top is not None and top < 2):
+        return None
+    ranked = sorted(
+        (i for i in known(aicc or []) if models[i] not in (skip or [])), key=lambda i: aicc[i]
+    )
+    if len(ranked) < 2 or models[ranked[0]] not in post_models:
+        return None
+    best, second = ranked[0], ranked[1]
+    gap = aicc[second] - aicc[best]
+    if models[second] in post_models or gap < below:
+        return None
+    return say(
+        "The runner-up {second:law} has no posterior: its AICc is {d_aicc:.1f} above "
+        "{best:law}'s, not below {below:g} (the gap under which a runner-up is sampled too); "
+        "to reverse that order the evidence's log Bayes factor would have to fall {need:.1f} "
+        "short of half the AICc gap, {times:.1f} times the most it fell short between any two "
+        "laws the committed `fitdf report --full` sampled ({shortfall:.2f}).",
+        second=models[second],
+        best=models[best],
+        d_aicc=gap,
+        below=below,
+        need=gap / 2,
+        times=gap / 2 / EVIDENCE_SHORTFALL,
+        shortfall=EVIDENCE_SHORTFALL,
+    )
+
+
+@rule(
     "block.disagreement",
     cv="blocks/{block}/ranking_lsq/*/cv_rms_complex",
     **_BLOCK,
@@ -214,12 +256,13 @@ def _hardest(where, row, block):
 
 
 def block_claims(results: dict, key: str) -> list[dict]:
-    """One block's statement: best law and margin, the posteriors, disagreement, hardest rows."""
+    """One block's statement: best law and margin, the posteriors (and why the runner-up has
+    none, where its AICc gap left it unsampled), disagreement, hardest rows."""
     return paragraph(
         results,
         *(
             (f"block.{kind}", {"block": key})
-            for kind in ("best", "posteriors", "disagreement", "hardest")
+            for kind in ("best", "posteriors", "runner_up", "disagreement", "hardest")
         ),
     )
 

@@ -159,7 +159,7 @@ def _nested_text(s) -> str:
         "posteriors and their Bayesian evidence by nested sampling (nautilus, {live} live "
         "points, {nets} per bound, up to {mx:,} likelihood evaluations; converged at {eff} effective draws and "
         "an evidence error of at most {err}) for the best {top} least-squares models of "
-        "{where}{sens}".format(
+        "{where}{below}{sens}".format(
             live=s["nested_live"],
             nets=_networks(s.get("nested_networks", 4)),
             mx=s["nested_max_evaluations"],
@@ -167,6 +167,12 @@ def _nested_text(s) -> str:
             err=MAX_LOG_EVIDENCE_ERROR,
             top="all" if s["posterior_top"] is None else s["posterior_top"],
             where="each block" if not where else ", ".join(where),
+            below=(
+                " (the runners-up only where their AICc is within "
+                f"{s['posterior_runner_up_below']:g} of the best's)"
+                if s.get("posterior_runner_up_below") is not None
+                else ""
+            ),
             sens=(
                 f"; the evidence again with the prior box {box_factors()} for the best "
                 f"{s['sensitivity_top']} of each block"

@@ -22,7 +22,10 @@ __all__ = [
     "CROSS_DIRECTIONS",
     "LIMIT_CYCLE_BLOCKS",
     "CORE_BLOCKS",
+    "EVIDENCE_SHORTFALL",
+    "RUNNER_UP_AICC_GAP",
     "ReportSettings",
+    "posterior_laws",
     "RUNS",
     "run_record",
     "settings_record",
@@ -73,6 +76,26 @@ LIMIT_CYCLE_BLOCKS = ("B.1", "B.3", "B.2", "B.5")
 #: both source impedances jointly (Permalloy, Deltamax), and Supermalloy's one table.
 CORE_BLOCKS = ("permalloy-joint", "deltamax-joint", "B.4")
 
+#: The most the evidence has favoured the better of two laws *less* than AICc does, in ln
+#: units: the largest ``Delta-AICc / 2 - ln B`` over every pair of laws sampled on a block of
+#: the committed ``fitdf report --full`` (``reports/results.json``: 21 pairs on 7 blocks,
+#: Delta-AICc 23-217, ``ln B`` the difference of their nested-sampling ``log_evidence``),
+#: rounded up; it is Permalloy B.3's preisach over constant_width (Delta-AICc 112.9, ln B
+#: 41.6). No pair's evidence reversed AICc's order. AICc's ``-AICc / 2`` estimates
+#: ``ln Z`` up to the Occam factor, which charges each parameter ``ln(prior width / posterior
+#: width)`` where AICc charges it about one: to Laplace's approximation the shortfall is the
+#: difference of those charges between the two laws (tests/test_posterior_choice.py
+#: recomputes it from the committed report).
+EVIDENCE_SHORTFALL = 14.81
+
+#: Delta-AICc (runner-up minus best) below which the default report samples a block's
+#: runner-up too: least squares leave the order open there. The evidence reverses AICc's order
+#: only where its shortfall (:data:`EVIDENCE_SHORTFALL`) exceeds ``Delta-AICc / 2``, that is
+#: below ``2 * EVIDENCE_SHORTFALL`` = 29.6; the threshold doubles that margin
+#: (``4 * EVIDENCE_SHORTFALL`` = 59.2, rounded up to 60), so that at or above it a reversal
+#: would need the evidence to depart from AICc by twice the most it has been measured to.
+RUNNER_UP_AICC_GAP = 60.0
+
 
 @dataclass(frozen=True)
 class ReportSettings:
@@ -102,6 +125,11 @@ class ReportSettings:
         stops unconverged.
     posterior_blocks : tuple of str or None
         The blocks whose best ``posterior_top`` laws get posteriors (None: every block).
+    posterior_runner_up_below : float or None
+        Of those laws, the best is always sampled and each other one only where its AICc
+        exceeds the best's by less than this (:data:`RUNNER_UP_AICC_GAP`: where least squares
+        leave the order open); None: the best ``posterior_top`` laws, whatever their gaps
+        (:func:`posterior_laws`).
     sensitivity_top : int
         For the best this many sampled laws of each block, the evidence again with the prior
         box halved (about the best fit) and doubled (about its centre): how much the Bayes
@@ -171,6 +199,7 @@ class ReportSettings:
     nested_networks: int = DEFAULT_NETWORKS
     nested_max_evaluations: int = 100_000
     posterior_blocks: tuple | None = None
+    posterior_runner_up_below: float | None = None
     sensitivity_top: int = 0
     n_steps: int = 300
     max_steps: int = 4000
@@ -208,9 +237,10 @@ class ReportSettings:
         """The settings of the three runs of ``fitdf report``.
 
         The default: every law on every block by least squares, cross-validation,
-        cross-impedance, limit cycles, the rate-dependent refits, and the posteriors and
-        evidences of the best two laws of each core (:data:`CORE_BLOCKS`) by nested sampling,
-        so that each core has a Bayes factor.
+        cross-impedance, limit cycles, the rate-dependent refits, and the posterior and
+        evidence of the best law of each core (:data:`CORE_BLOCKS`) by nested sampling, with
+        the runner-up's where its AICc is within :data:`RUNNER_UP_AICC_GAP` of the best's
+        (where a Bayes factor could plausibly reverse the order).
         ``full``: the posteriors of the best three laws of every block, and the evidence's
         sensitivity to the prior for the best two. ``quick``: least squares only (the same
         models, starts and seeds, so the same rankings), no cross-validation, one law per
@@ -246,6 +276,7 @@ class ReportSettings:
             methods=methods,
             posterior_top=2 if sampled else 0,
             posterior_blocks=CORE_BLOCKS,
+            posterior_runner_up_below=RUNNER_UP_AICC_GAP,
             **common,
         )
 
@@ -264,6 +295,36 @@ class ReportSettings:
         if unknown:
             raise OptionError(f"unknown report block(s) {', '.join(sorted(unknown))}")
         return [b for b in BLOCKS if b.key in keys]
+
+
+def posterior_laws(settings: ReportSettings, key: str, aicc: dict) -> list[str]:
+    """The laws of block ``key`` whose posteriors ``settings`` sample, best first.
+
+    ``aicc``: each law's least-squares AICc on the block, in its ranking's order (best
+    first). The best ``posterior_top`` laws (``posterior_skip`` aside) of a block of
+    ``posterior_blocks``; with ``posterior_runner_up_below``, the best of them and those whose
+    AICc exceeds its by less than that.
+
+    Examples
+    --------
+    >>> s = ReportSettings.for_run()
+    >>> posterior_laws(s, "B.4", {"preisach": 314.4, "jiles_atherton": 365.1, "cubic_hc": 467.1})
+    ['preisach', 'jiles_atherton']
+    >>> posterior_laws(s, "B.4", {"preisach": 314.4, "jiles_atherton": 374.4})
+    ['preisach']
+    >>> posterior_laws(s, "B.1", {"preisach": 60.2, "jiles_atherton": 99.7})
+    []
+    """
+    if "posterior" not in settings.methods or not (
+        settings.posterior_blocks is None or key in settings.posterior_blocks
+    ):
+        return []
+    laws = [m for m in aicc if m not in settings.posterior_skip]
+    top = laws if settings.posterior_top is None else laws[: max(int(settings.posterior_top), 0)]
+    below = settings.posterior_runner_up_below
+    if below is None or not top:
+        return top
+    return top[:1] + [m for m in top[1:] if aicc[m] - aicc[top[0]] < below]
 
 
 #: The runs of ``fitdf report``, each with its command-line option.
@@ -309,6 +370,12 @@ def _count(n) -> float:
     return float("inf") if n is None else max(int(n), 0)
 
 
+def _count_below(record) -> float:
+    """A record's ``posterior_runner_up_below`` (None or absent: every gap, infinity)."""
+    below = record.get("posterior_runner_up_below")
+    return float("inf") if below is None else float(below)
+
+
 def _some(values, value) -> set:
     """The set ``values`` stands for; None stands for every one (``value``: that set)."""
     return (
@@ -349,8 +416,13 @@ def lost_by(old: dict, new: dict) -> list[str]:
 
     if sampled(old):
         every = set(get(old, "blocks") or []) | set(get(new, "blocks") or [])
-        fewer = sampled(new) < sampled(old) or not (
-            _some(get(old, "posterior_blocks"), every) <= _some(get(new, "posterior_blocks"), every)
+        fewer = (
+            sampled(new) < sampled(old)
+            or _count_below(new) < _count_below(old)
+            or not (
+                _some(get(old, "posterior_blocks"), every)
+                <= _some(get(new, "posterior_blocks"), every)
+            )
         )
         if fewer or get(new, "sampler") != get(old, "sampler"):
             lost.append("posteriors")
