@@ -24,7 +24,6 @@ from test_voltage_chain import reference_backward_euler
 
 import fitdf
 from fitdf.chains import VoltageChain
-from fitdf.numerical_df import numerical_describing_function
 from fitdf.models import ADDITIONAL_MODELS, get_model, law_name, model_names
 from fitdf.models.low_field import RAYLEIGH_RATIO, ja_low_field, rayleigh_slopes
 from fitdf.models.preisach import rayleigh_constant as gaussian_gamma
@@ -36,6 +35,7 @@ from fitdf.models.preisach_rayleigh import (
     rayleigh_population_df,
 )
 from fitdf.models.rayleigh import rayleigh_describing_function
+from fitdf.numerical_df import numerical_describing_function
 
 #: Permalloy-like (the report's B.3 Preisach fit with a Rayleigh population) and
 #: Deltamax-like (a square Gaussian density, a reversible part saturating at ~26 uA).
