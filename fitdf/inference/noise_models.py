@@ -13,8 +13,11 @@ coarser: a noise voltage ``e_p`` beside an output phasor ``V_out`` turns it by
     degree in phase, a floor of 0.01 on the arc): least squares weighs every row alike and
     profiles one common scale out of AICc (:mod:`fitdf.inference.metrics`).
 ``constant``
-    The two scales fitted (maximum likelihood), the same for every row: the samplers'
-    likelihood (:mod:`fitdf.inference.noise`), with the arc's floor of 0.01.
+    The two scales fitted (maximum likelihood), the same for every row: magnitude ``s_m``,
+    phase ``s_p`` (the arc's scale ``|D_i| s_p``). The samplers' likelihood
+    (:mod:`fitdf.inference.noise`) without its arc floor of 0.01, which is not needed where
+    the rows without a phase are left out: so it is the ``reading`` law without its reading
+    terms, and the two compare as nested laws.
 ``reading``
     The reading law::
 
@@ -81,10 +84,6 @@ PARAMETER_BOUNDS = {
     "nu": (1.0, 100.0),
 }
 PARAMETER_UNITS = {"s_m": "-", "s_p_deg": "deg", "r_m": "V", "r_p": "V", "nu": "-"}
-
-#: The arc's floor of the ``printed`` and ``constant`` laws
-#: (:class:`fitdf.data.fitdata.NoiseModel`).
-ARC_FLOOR = 0.01
 
 #: name -> (reading scales, Student-t errors)
 NOISE_LAWS = {
@@ -189,7 +188,7 @@ class NoiseLaw:
             st = np.hypot(absD * s_p, lever * p["r_p"])
         else:
             sm = np.full(absD.shape, p["s_m"])
-            st = np.hypot(absD * s_p, ARC_FLOOR)
+            st = absD * s_p
         return sm, st
 
     def pointwise(self, log_theta, radial, tang, ctx):
