@@ -178,6 +178,64 @@ def worst_rows(out) -> str:
     return "\n".join(lines)
 
 
+#: Input-amplitude (V) and output-amplitude (V) bins of the residual study.
+INPUT_BINS = (0.0, 0.1, 0.25, 0.5, 1.0, 2.0, np.inf)
+OUTPUT_BINS = (0.0, 0.03, 0.1, 0.3, 1.0, np.inf)
+
+
+def residual_study(results_json="reports/results.json") -> str:
+    """Today's best least-squares fit of each block (the committed report's optimum, not
+    refitted): RMS magnitude and phase residual by input and by output amplitude, and the
+    log-log slope of the residuals' size against each."""
+    from fitdf.inference.metrics import phase_difference_deg
+
+    with open(results_json) as fh:
+        blocks = json.load(fh)["blocks"]
+    lines = ["today's best fits: RMS magnitude / phase (deg) residual [rows] by amplitude"]
+    pooled = {"vin": [], "vout": [], "mag": [], "ph": []}
+    for block in BLOCK_LAWS:
+        law = blocks[block]["ranking_lsq"][0]["model"]
+        fit = blocks[block]["fits_lsq"][law]
+        fd = resolve_data(block)
+        values = {p["parameter"]: p["value"] for p in fit["parameters"]}
+        fixed = {p["parameter"]: p["value"] for p in fit["parameters"] if p["fixed"]}
+        problem = FitProblem(fd, law, "voltage", None, fixed or None, resolve_geometry("auto", fd))
+        M = problem.predict(problem.to_internal(values))
+        D = fd.measured
+        mag = np.abs(M) - np.abs(D)
+        ph = np.where(np.abs(D) > 0, phase_difference_deg(M, D), np.nan)
+        vout = fd.rows["h1_output_v"].to_numpy(float)
+        for key, arr in zip(pooled, (fd.amplitude, vout, mag, ph)):
+            pooled[key].append(arr)
+        cells = []
+        for lo, hi in zip(INPUT_BINS[:-1], INPUT_BINS[1:]):
+            m = (fd.amplitude > lo) & (fd.amplitude <= hi)
+            if m.any():
+                cells.append(
+                    f"{lo:g}-{hi:g} V: {_rms(mag[m]):.3f}/{_rms(ph[m]):.1f} [{int(m.sum())}]"
+                )
+        lines.append(f"  {block} {law}: " + "; ".join(cells))
+    p = {k: np.concatenate(v) for k, v in pooled.items()}
+    for name, x, bins in (("input", p["vin"], INPUT_BINS), ("output", p["vout"], OUTPUT_BINS)):
+        cells = []
+        for lo, hi in zip(bins[:-1], bins[1:]):
+            m = (x > lo) & (x <= hi)
+            if m.any():
+                cells.append(f"{lo:g}-{hi:g} V: {_rms(p['mag'][m]):.3f}/{_rms(p['ph'][m]):.1f}")
+        lines.append(f"  all blocks by {name}: " + "; ".join(cells))
+    for col, xname in (("mag", "vin"), ("ph", "vout"), ("ph", "vin")):
+        y, x = np.abs(p[col]), p[xname]
+        ok = np.isfinite(y) & (y > 0) & (x > 0)
+        slope = np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0]
+        lines.append(f"  log-log slope of |{col}| against {xname}: {slope:.2f}")
+    return "\n".join(lines)
+
+
+def _rms(x):
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--blocks", nargs="+", default=list(BLOCK_LAWS))
@@ -185,7 +243,15 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", default=None, help="write the numbers to this file")
     ap.add_argument("--from-json", default=None, help="print the table of a saved run")
+    ap.add_argument(
+        "--residuals",
+        action="store_true",
+        help="only the residual study of today's fits (reports/results.json; seconds)",
+    )
     args = ap.parse_args(argv)
+    if args.residuals:
+        print(residual_study())
+        return
     if args.from_json:
         with open(args.from_json) as fh:
             out = json.load(fh)

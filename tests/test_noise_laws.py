@@ -278,3 +278,22 @@ def test_cli_bad_noise_option_is_a_one_line_error(args, fragment):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
     assert fragment in lines[0], lines[0]
+
+
+@pytest.mark.slow
+def test_cross_validation_scores_held_out_rows_by_the_noise_law():
+    """On rows with reading noise the reading law predicts the held-out frequency blocks'
+    rows more probably than the constant law (their log density), and the score is the sum
+    of the folds'."""
+    from fitdf.inference.ranking import cross_validate
+
+    frame = analyser_frame(seed=8)
+    kw = dict(chain="winding", policy="all", seed=1, geometry=None, n_starts=2)
+    scores = {}
+    for name in ("constant", "reading"):
+        cv = cross_validate(fitdf.fit(frame, "proportional_width", noise=name, **kw), seed=1)
+        assert cv["cv_folds"] == 6
+        folds = [fold["log_score"] for fold in cv["cv_per_fold"]]
+        assert cv["cv_log_score"] == pytest.approx(sum(folds), abs=1e-9)
+        scores[name] = cv["cv_log_score"]
+    assert scores["reading"] - scores["constant"] > 20.0, scores
