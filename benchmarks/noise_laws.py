@@ -2,15 +2,16 @@
 
 For each block and each of its best laws (the committed ranking's first three), the law is
 fitted by least squares under each noise law of :mod:`fitdf.inference.noise_models`:
-``printed`` (today's fixed scales, multi-start) and, polished from that optimum, the fitted
+``printed`` (the default fixed scales, multi-start) and, polished from that optimum, the fitted
 ``constant``, ``reading``, ``student`` and ``reading-student`` laws. Printed per fit: the
 in-sample RMS, the maximised log-likelihood, AICc and BIC with the noise parameters counted
 (approximations of the evidence from the maximum: AICc's and BIC's), the leave-one-frequency-
 out RMS and log score (the held-out rows' log density under the law and noise fitted without
 them), and the noise parameters. Then, per noise law, the order of the laws by AICc, and the
-rows today's best fits miss most: their standardised residuals under each law.
+rows the printed-scale best fits miss most: how many of their residuals fall outside each
+law's 95 % interval.
 
-    python benchmarks/noise_laws.py                 # all five blocks (about 25 min on a core)
+    python benchmarks/noise_laws.py                 # all five blocks (about 27 min of CPU)
     python benchmarks/noise_laws.py --blocks B.2 --laws 2 --json out.json
 """
 
@@ -37,7 +38,7 @@ BLOCK_LAWS = {
     "B.4": ("preisach", "jiles_atherton", "cubic_hc"),
     "B.5": ("preisach", "cubic_hc", "constant_width"),
 }
-#: How many of the rows today's best fits miss most (complex error) are examined.
+#: How many of the rows the printed-scale best fits miss most (complex error) are examined.
 N_WORST = 25
 
 
@@ -128,7 +129,7 @@ def table(out) -> str:
                     f"{r['aicc']:9.1f}{bic:9.1f}{r['cv_rms_complex']:8.4f}{cvl:9.1f}  {noise}"
                 )
     lines.append("")
-    lines.append("order of the laws by AICc (printed: today's profile AICc), per noise law")
+    lines.append("order of the laws by AICc (printed: the default's profile AICc), per noise law")
     for block, laws in out.items():
         for name in names:
             order = sorted(laws, key=lambda law: laws[law][name]["aicc"])
@@ -143,7 +144,7 @@ def table(out) -> str:
 
 
 def worst_rows(out) -> str:
-    """The rows today's best fit of each block misses most, pooled: their inputs and, under
+    """The rows the printed-scale best fit of each block misses most, pooled: their inputs and, under
     each fitted noise law, the share of their terms (magnitude, arc) outside the law's central
     95 % interval, against all rows' (5 % for a law that describes them)."""
     noises = list(NOISE_LAWS)[1:]
@@ -161,7 +162,7 @@ def worst_rows(out) -> str:
         return sum(p[4][n][0] for p in rows) / sum(p[4][n][1] for p in rows)
 
     lines = [
-        f"the {len(worst)} rows today's best fits miss most (of {len(pooled)}): median input "
+        f"the {len(worst)} rows the printed-scale best fits miss most (of {len(pooled)}): median input "
         f"{np.median([p[3] for p in worst]):.3g} V (all rows "
         f"{np.median([p[3] for p in pooled]):.3g} V), RMS error "
         f"{np.sqrt(np.mean([p[0] ** 2 for p in worst])):.4f}",
@@ -184,14 +185,14 @@ OUTPUT_BINS = (0.0, 0.03, 0.1, 0.3, 1.0, np.inf)
 
 
 def residual_study(results_json="reports/results.json") -> str:
-    """Today's best least-squares fit of each block (the committed report's optimum, not
+    """The printed-scale best least-squares fit of each block (the committed report's optimum, not
     refitted): RMS magnitude and phase residual by input and by output amplitude, and the
     log-log slope of the residuals' size against each."""
     from fitdf.inference.metrics import phase_difference_deg
 
     with open(results_json) as fh:
         blocks = json.load(fh)["blocks"]
-    lines = ["today's best fits: RMS magnitude / phase (deg) residual [rows] by amplitude"]
+    lines = ["printed-scale best fits: RMS magnitude / phase (deg) residual [rows] by amplitude"]
     pooled = {"vin": [], "vout": [], "mag": [], "ph": []}
     for block in BLOCK_LAWS:
         law = blocks[block]["ranking_lsq"][0]["model"]
@@ -246,7 +247,7 @@ def main(argv=None):
     ap.add_argument(
         "--residuals",
         action="store_true",
-        help="only the residual study of today's fits (reports/results.json; seconds)",
+        help="only the residual study of the printed-scale fits (reports/results.json; seconds)",
     )
     args = ap.parse_args(argv)
     if args.residuals:

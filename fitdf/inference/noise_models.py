@@ -9,7 +9,7 @@ coarser: a noise voltage ``e_p`` beside an output phasor ``V_out`` turns it by
 ``e_p / V_out`` rad. The laws here (``docs/method/noise.rst``):
 
 ``printed`` (the default)
-    Today's fixed scales (:class:`fitdf.data.fitdata.NoiseModel`: 0.01 in magnitude, 1
+    The fixed scales (:class:`fitdf.data.fitdata.NoiseModel`: 0.01 in magnitude, 1
     degree in phase, a floor of 0.01 on the arc): least squares weighs every row alike and
     profiles one common scale out of AICc (:mod:`fitdf.inference.metrics`).
 ``constant``
@@ -66,7 +66,7 @@ __all__ = [
     "student_logpdf",
 ]
 
-#: The law of every fit unless another is asked for: today's fixed printed-precision scales.
+#: The law of every fit unless another is asked for: the fixed printed-precision scales.
 DEFAULT_NOISE = "printed"
 
 #: Box of each noise parameter: ``(lower, upper)`` in its unit, the support of its
