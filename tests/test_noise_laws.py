@@ -211,6 +211,10 @@ def test_reading_law_recovers_known_noise_and_law_parameters():
         law.pointwise(reading.info["noise_law"]["log10"], *errors, law.context(problem.data))
     )
     assert reading.metrics["log_likelihood"] == pytest.approx(total, abs=1e-9)
+    # the fit's text states the fitted law from those numbers
+    text = " ".join(reading.summary(width=1000).split())
+    line = " ".join(f"{k} {v:.3g}" for k, v in fitted.items())
+    assert f"noise law reading (fitted; log-likelihood {total:.2f}): {line}" in text
 
 
 def test_without_reading_errors_the_resolutions_are_not_determined():
