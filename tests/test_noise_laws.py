@@ -211,6 +211,12 @@ def test_reading_law_recovers_known_noise_and_law_parameters():
         law.pointwise(reading.info["noise_law"]["log10"], *errors, law.context(problem.data))
     )
     assert reading.metrics["log_likelihood"] == pytest.approx(total, abs=1e-9)
+    # the law's parameters are refitted under the fitted noise (weighted by it), not left at
+    # the printed-scale optimum (that optimum with its best noise parameters is 13 lower)
+    printed = fitdf.fit(frame, "proportional_width", **kw)
+    at_printed = printed.problem.error_components(printed.problem.predict(printed.internal))
+    _, loglike_printed = law.fit(*at_printed, law.context(printed.problem.data))
+    assert total - loglike_printed > 5.0, (total, loglike_printed)
     # the fit's text states the fitted law from those numbers
     text = " ".join(reading.summary(width=1000).split())
     line = " ".join(f"{k} {v:.3g}" for k, v in fitted.items())
