@@ -245,6 +245,8 @@ def cmd_fit_checked(args, models, geometry, sources, batch, rows):
     records, summary = [], []
     show = not args.quiet and not args.json
     fit_kw = dict(n_steps=args.steps, max_steps=args.max_steps, geometry=geometry)
+    if args.noise != "printed":  # (the default's cache key as it was)
+        fit_kw["noise"] = args.noise
     # kept on ``args``: after Ctrl-C, the one line says what the caches kept
     args.job_caches = []
     with Executor(workers=args.workers, scheduler=args.scheduler, progress=show) as executor:

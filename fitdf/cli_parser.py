@@ -41,6 +41,10 @@ RANK_CHOICES = (
     "n_params",
     "log_evidence",
 )
+#: Noise laws (``fitdf.inference.noise_models.NOISE_LAWS``; the first is the default) and
+#: those the samplers take (``fitdf.inference.api.SAMPLED_NOISE``).
+NOISE_CHOICES = ("printed", "constant", "reading", "student", "reading-student")
+SAMPLED_NOISE = ("printed", "constant")
 #: Row policies (``fitdf.data.audit.POLICIES``; the first is the default) and the other
 #: names they answer to (``fitdf.data.audit.POLICY_ALIASES``).
 POLICY_CHOICES = ("trusted", "reordered", "as_printed", "all", "strict")
@@ -267,6 +271,8 @@ def validate(args) -> None:
         raise OptionError(f"--rank-by {args.rank_by} needs --method nested, mcmc or both")
     if getattr(args, "rank_by", None) == "log_evidence" and args.method not in ("nested", "both"):
         raise OptionError("--rank-by log_evidence needs --method nested or both")
+    if getattr(args, "noise", SAMPLED_NOISE[0]) not in SAMPLED_NOISE and args.method != "lsq":
+        raise OptionError(f"--noise {args.noise} needs --method lsq")
 
 
 # ------------------------------------------------------------------ shared options
@@ -440,6 +446,16 @@ def _fit_model_options(sp) -> None:
         help="the core's turns and dimensions for a user's CSV, e.g. "
         '"turns=1250,od=63.5mm,id=50.8mm,height=12.7mm[,stacking=0.85][,r_winding=54]" or a file '
         "of such lines (default: Appendix A for a thesis core, else none)",
+    )
+    sp.add_argument(
+        "--noise",
+        default=NOISE_CHOICES[0],
+        choices=NOISE_CHOICES,
+        help="measurement-noise law: printed (default) weighs the rows by the tables' printed "
+        "precision; constant fits one magnitude and one phase scale; reading fits a floor and "
+        "an output-reading resolution each, the errors growing as the input falls; student and "
+        "reading-student the same with Student-t errors (those three: --method lsq only; "
+        "docs/method/noise.rst)",
     )
     sp.add_argument(
         "--rank-by",

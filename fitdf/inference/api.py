@@ -10,6 +10,7 @@ from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.material import with_material
 from fitdf.inference.mcmc import fit_mcmc
 from fitdf.inference.nested import fit_nested
+from fitdf.inference.noise_models import get_noise_law
 from fitdf.inference.problem import FitProblem
 
 __all__ = ["fit", "resolve_data", "resolve_geometry", "METHODS", "DEFAULT_CHAIN"]
@@ -18,6 +19,11 @@ __all__ = ["fit", "resolve_data", "resolve_geometry", "METHODS", "DEFAULT_CHAIN"
 DEFAULT_CHAIN = "voltage"
 
 METHODS = ("lsq", "mcmc", "nested")
+
+#: Noise laws (:mod:`fitdf.inference.noise_models`) the samplers take: their likelihood
+#: has the two ``constant`` scales (:mod:`fitdf.inference.noise`), least squares before
+#: them the printed or the fitted constant ones.
+SAMPLED_NOISE = ("printed", "constant")
 
 
 def fit(
@@ -28,7 +34,7 @@ def fit(
     seed: int = 0,
     policy: str = "default",
     source_impedance=None,
-    noise: NoiseModel | None = None,
+    noise: NoiseModel | str | None = None,
     fixed: dict | None = None,
     n_starts: int = 6,
     n_steps: int = 300,
@@ -58,6 +64,12 @@ def fit(
     n_steps, max_steps : int
         MCMC runs a pilot, then at least ``n_steps`` and up to ``max_steps`` until the
         chain has converged (:func:`fitdf.inference.mcmc.is_converged`).
+    noise : NoiseModel or str, optional
+        The measurement noise: fixed scales (a :class:`~fitdf.data.fitdata.NoiseModel`;
+        None: the printed precision), or the name of a noise law of
+        :mod:`fitdf.inference.noise_models` whose parameters are fitted with the law's
+        ("printed" is the default's name; "constant", "reading", "student",
+        "reading-student"). The laws beyond "constant" are fitted by least squares only.
     nested : dict, optional
         Options of :func:`~fitdf.inference.nested.fit_nested` (``n_live``,
         ``max_evaluations``, ...) for ``method="nested"``.
@@ -79,8 +91,18 @@ def fit(
     """
     if method not in METHODS:
         raise OptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    law = None
+    if isinstance(noise, str):
+        law, noise = get_noise_law(noise), None
+        if law.name not in SAMPLED_NOISE and method != "lsq":
+            raise OptionError(
+                f"noise law {law.name!r} is fitted by least squares only; method {method!r} "
+                f"samples the {' or '.join(map(repr, SAMPLED_NOISE))} noise"
+            )
     rows = resolve_data(data, policy, source_impedance)
-    problem = FitProblem(rows, model, chain, noise, fixed, resolve_geometry(geometry, rows))
+    problem = FitProblem(
+        rows, model, chain, noise, fixed, resolve_geometry(geometry, rows), noise_law=law
+    )
     result = fit_lsq(problem, seed=seed, n_starts=n_starts)
     if method == "lsq":
         return with_material(result)

@@ -308,6 +308,10 @@ def fit_lsq(
 ) -> FitResult:
     """Least-squares fit of ``problem`` (see the module docstring for the strategy).
 
+    With a fitted noise law (``problem.noise_law``, :mod:`fitdf.inference.noise_models`)
+    the law's parameters and the noise parameters are fitted together by maximum
+    likelihood (:func:`_fit_with_noise`); otherwise the fixed scales weigh the residuals.
+
     ``n_starts`` screened starts are polished, times the law's ``start_multiple``
     (:class:`~fitdf.models.base.HysteresisModel`: more for a law whose chi-square has kinks).
 
@@ -325,6 +329,23 @@ def fit_lsq(
         (which stopped in a basin an earlier start had reached), ``best_start``,
         ``n_agree``, ``nfev_total`` and the settings.
     """
+    kw = dict(n_starts=n_starts, n_screen=n_screen, max_nfev=max_nfev, also_screen=also_screen)
+    if problem.noise_law is not None:
+        return _fit_with_noise(problem, seed, starts, uncertainties, kw)
+    return _fit_fixed(problem, seed, starts=starts, uncertainties=uncertainties, **kw)
+
+
+def _fit_fixed(
+    problem: FitProblem,
+    seed: int = 0,
+    n_starts: int = 6,
+    n_screen: int = 256,
+    max_nfev: int = 400,
+    starts=None,
+    also_screen: int = 0,
+    uncertainties: bool = True,
+) -> FitResult:
+    """:func:`fit_lsq` at the fixed scales of ``problem`` (its row scales where set)."""
     starts, n_screen = _starts(problem, seed, n_starts, n_screen, starts, also_screen)
     polished = _polish_starts(problem, starts, max_nfev)
     costs = np.array([cost for *_, cost in polished])
@@ -425,3 +446,65 @@ def _fit_warnings(problem, x, intervals, no_covar, out, n_agree, n_starts) -> li
     if n_agree < 2 and n_starts > 1:
         warns.append(f"only the winning start reached the best chi-square (of {n_starts} starts)")
     return warns
+
+
+#: Rounds of the noise fit's alternation (:func:`_fit_with_noise`) at most ...
+NOISE_ROUNDS = 10
+#: ... stopping when a round raises the penalised log-likelihood by less than this (a
+#: hundredth of a unit: far below what moves AICc).
+NOISE_TOLERANCE = 0.01
+
+
+def _fit_with_noise(problem: FitProblem, seed, starts, uncertainties, kw) -> FitResult:
+    """Maximum likelihood of the law's and the noise law's parameters together.
+
+    The multi-start search runs at the fixed printed scales (or polishes ``starts``); then
+    rounds alternate the noise parameters' maximum likelihood at fixed residuals with a
+    weighted least-squares polish at fixed row scales (Student-t: the EM weights), each an
+    ascent of the likelihood penalised by the priors, until a round gains less than
+    :data:`NOISE_TOLERANCE`. ``metrics`` then hold ``log_likelihood`` and AICc and BIC of it
+    with the noise parameters counted (``n_noise_params``); ``info["noise_law"]`` the
+    fitted noise parameters.
+    """
+    law = problem.noise_law
+    ctx = law.context(problem.data)
+    result = _fit_fixed(problem, seed, starts=starts, uncertainties=False, **kw)
+    x, theta, objective, rounds = result.internal, None, -np.inf, 0
+    while True:
+        radial, tang = problem.error_components(problem.predict(x))
+        theta, loglike = law.fit(radial, tang, ctx, theta)
+        penalised = loglike - 0.5 * float(np.sum(problem.prior_residuals(x) ** 2))
+        if rounds >= NOISE_ROUNDS or penalised - objective < NOISE_TOLERANCE:
+            break
+        objective, rounds = penalised, rounds + 1
+        weighted = problem.with_row_scales(*law.weights_scales(theta, radial, tang, ctx))
+        step = _fit_fixed(weighted, seed, starts=x, uncertainties=False, max_nfev=kw["max_nfev"])
+        x = step.internal
+    # the covariance and the metrics at the last round's row scales (a polish from ``x``
+    # there moves it by the tolerance at most), the noise parameters refitted at its optimum
+    final = problem.with_row_scales(*law.weights_scales(theta, radial, tang, ctx))
+    result = _fit_fixed(final, seed, starts=x, uncertainties=uncertainties, max_nfev=kw["max_nfev"])
+    radial, tang = problem.error_components(problem.predict(result.internal))
+    theta, loglike = law.fit(radial, tang, ctx, theta)
+    k = problem.ndim + len(law.names)
+    n = law.n_terms(ctx)
+    aic = -2.0 * loglike + 2.0 * k
+    result.metrics.update(
+        log_likelihood=float(loglike),
+        n_noise_params=len(law.names),
+        aic=float(aic),
+        aicc=float(aic + (2.0 * k * (k + 1) / (n - k - 1) if n - k - 1 > 0 else np.inf)),
+        bic=float(-2.0 * loglike + k * np.log(n)),
+    )
+    result.info["noise_law"] = {
+        "name": law.name,
+        "values": law.natural(theta),
+        "log10": [float(v) for v in theta],
+        "rounds": rounds,
+        "n_terms": n,
+    }
+    result.warnings.extend(
+        f"noise parameter {name} is on a bound of its prior's box: the rows do not determine it"
+        for name in law.on_bound(theta)
+    )
+    return result

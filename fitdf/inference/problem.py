@@ -32,11 +32,13 @@ from fitdf.chains import get_chain, series_resistance_prior
 from fitdf.data.cores import CoreGeometry
 from fitdf.data.fitdata import FitData, NoiseModel
 from fitdf.errors import ModelError
+from fitdf.inference.noise_models import get_noise_law
 from fitdf.models import get_model
 from fitdf.params import PER_TABLE, ParamSpec, parameter_base, table_parameter
 
 __all__ = [
     "FitProblem",
+    "error_components",
     "physical_spec",
     "UNDEFINED_PHASE_ERROR",
 ]
@@ -45,6 +47,17 @@ __all__ = [
 #: drawn uniformly on the circle. (Counted as 0, a law whose loop never leaves its dead
 #: band "fitted" every phase: constant_width on B.3, k = 0.35 H, b = 0.12 A.)
 UNDEFINED_PHASE_ERROR = np.pi / np.sqrt(3.0)
+
+
+def error_components(predicted, measured):
+    """Magnitude error ``|M| - |D|`` and phase error times ``|D|`` of predictions ``M`` of
+    measured ``D`` (module docstring), each of the shape of ``predicted``."""
+    absD = np.abs(measured)
+    phase = np.angle(predicted * np.conj(measured))  # x |D| below: nothing where D = 0
+    # M = 0 (a loop that never leaves its dead band) has no phase: it misses the
+    # measured one as a uniformly random phase would, by pi/sqrt(3) rms
+    phase = np.where(predicted == 0, UNDEFINED_PHASE_ERROR, phase)
+    return np.abs(predicted) - absD, absD * phase
 
 
 def physical_spec(spec: ParamSpec, geometry: CoreGeometry) -> ParamSpec:
@@ -77,6 +90,9 @@ class FitProblem:
         (:func:`fitdf.chains.series_resistance.series_resistance_prior`): data at
         one source impedance leave a current scale that only the series resistance fixes
         (:mod:`fitdf.data.cores`).
+    noise_law : str or NoiseLaw, optional
+        A fitted measurement-noise law (:mod:`fitdf.inference.noise_models`) instead of the
+        fixed scales of ``noise``; ``"printed"`` is the same as None.
     """
 
     def __init__(
@@ -87,8 +103,16 @@ class FitProblem:
         noise: NoiseModel | None = None,
         fixed: dict | None = None,
         geometry: CoreGeometry | None = None,
+        noise_law=None,
     ):
         self.data = data
+        #: The measurement-noise law fitted beside the parameters
+        #: (:mod:`fitdf.inference.noise_models`; None: the fixed scales of ``noise``) ...
+        self.noise_law = None if noise_law is None else get_noise_law(noise_law)
+        if self.noise_law is not None and not self.noise_law.fitted:
+            self.noise_law = None
+        #: ... and, while it is fitted, the per-row scales of the weighted residuals.
+        self.row_scales = None
         self.geometry = geometry
         self.model = get_model(model)
         self.chain = get_chain(chain)
@@ -276,16 +300,20 @@ class FitProblem:
     def error_components(self, predicted):
         """Magnitude error ``|M| - |D|`` and phase error times ``|D|`` (the arc on the
         measured circle; module docstring), each of the shape of ``predicted``."""
-        D = self.data.measured
-        absD = np.abs(D)
-        phase = np.angle(predicted * np.conj(D))  # x |D| below: nothing where D = 0
-        # M = 0 (a loop that never leaves its dead band) has no phase: it misses the
-        # measured one as a uniformly random phase would, by pi/sqrt(3) rms
-        phase = np.where(predicted == 0, UNDEFINED_PHASE_ERROR, phase)
-        return np.abs(predicted) - absD, absD * phase
+        return error_components(predicted, self.data.measured)
+
+    def with_row_scales(self, magnitude, arc) -> FitProblem:
+        """A copy whose weighted residuals use these per-row scales (DF units): a weighted
+        least-squares step of a fitted noise law."""
+        out = copy.copy(self)
+        out.row_scales = (np.asarray(magnitude, float), np.asarray(arc, float))
+        return out
 
     def scales(self, sigma_magnitude=None, sigma_phase_deg=None):
-        """Magnitude and arc (``|D|`` x phase) noise scales per row (broadcast against batches)."""
+        """Magnitude and arc (``|D|`` x phase) noise scales per row (broadcast against batches);
+        without arguments, the row scales of :meth:`with_row_scales` where they are set."""
+        if sigma_magnitude is None and sigma_phase_deg is None and self.row_scales is not None:
+            return self.row_scales
         sm = (
             self.noise.sigma_magnitude
             if sigma_magnitude is None

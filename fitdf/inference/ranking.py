@@ -35,7 +35,7 @@ from fitdf.inference.api import DEFAULT_CHAIN, fit, resolve_data, resolve_geomet
 from fitdf.inference.lsq import fit_lsq
 from fitdf.inference.metrics import residual_metrics
 from fitdf.inference.presentation import comparison_text, summary_record
-from fitdf.inference.problem import FitProblem
+from fitdf.inference.problem import FitProblem, error_components
 from fitdf.inference.selection import (
     TIE_TWO_LN_B,
     aicc_tie,
@@ -217,6 +217,8 @@ def cross_validate(result, seed=0, n_starts=None) -> dict:
     if len(keys) < 2:
         return {"cv_rms_complex": float("nan"), "cv_folds": 0}
     errors, per_fold = [], []
+    law = problem.noise_law
+    ctx = None if law is None else law.context(d)  # the output gains of the whole tables
     for rs, f in keys:
         held = (d.source_impedance == rs) & (d.frequency == f)
         train = FitProblem(
@@ -226,6 +228,7 @@ def cross_validate(result, seed=0, n_starts=None) -> dict:
             problem.noise,
             problem.fixed,
             problem.geometry,
+            noise_law=problem.noise_law,
         )
         if train.data.n <= train.ndim:
             continue
@@ -241,19 +244,27 @@ def cross_validate(result, seed=0, n_starts=None) -> dict:
             table=held_rows.group[0] if held_rows.group[0] in train.data.groups else None,
         )
         errors.append(np.abs(pred - held_rows.measured))
-        per_fold.append(
-            {
-                "source_impedance_ohm": rs,
-                "frequency_hz": f,
-                **residual_metrics(pred, held_rows.measured),
-            }
-        )
+        fold = {
+            "source_impedance_ohm": rs,
+            "frequency_hz": f,
+            **residual_metrics(pred, held_rows.measured),
+        }
+        if law is not None:
+            errors_held = error_components(pred, held_rows.measured)
+            sub = {key: value[held] for key, value in ctx.items()}
+            theta = r.info["noise_law"]["log10"]
+            # the held rows' log density under the law and noise fitted without them
+            fold["log_score"] = float(np.sum(law.pointwise(theta, *errors_held, sub)))
+        per_fold.append(fold)
     allerr = np.concatenate(errors) if errors else np.array([np.nan])
-    return {
+    out = {
         "cv_rms_complex": float(np.sqrt(np.mean(allerr**2))),
         "cv_folds": len(per_fold),
         "cv_per_fold": per_fold,
     }
+    if law is not None:
+        out["cv_log_score"] = float(sum(fold["log_score"] for fold in per_fold))
+    return out
 
 
 def ranking_table(results, rank_by: str = "aicc", cv: dict | None = None) -> pd.DataFrame:

@@ -212,6 +212,16 @@ class FitResult:
             )
         if any(r[2] == DIMENSIONLESS for r in rows):
             lines.append(f"  (unit {DIMENSIONLESS}: dimensionless)")
+        noise = self.info.get("noise_law")
+        if noise:
+            fitted = "  ".join(f"{k} {v:.3g}" for k, v in noise["values"].items())
+            lines += textwrap.wrap(
+                f"noise law {noise['name']} (fitted; log-likelihood "
+                f"{m['log_likelihood']:.2f}): {fitted}",
+                width,
+                initial_indent="  ",
+                subsequent_indent="    ",
+            )
         for w_ in self.warnings:
             lines += textwrap.wrap(
                 f"warning: {w_}", width, initial_indent="  ", subsequent_indent="    "
