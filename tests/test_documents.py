@@ -351,14 +351,14 @@ def test_the_kass_raftery_scale_the_pages_state_is_the_rankings():
 
 
 def test_the_noise_priors_the_inference_page_states_are_the_codes():
-    from fitdf.inference.noise import NOISE_BOUNDS
+    from fitdf.inference.noise import NOISE_BOUNDS, NOISE_RANGES
 
-    (m_lo, m_hi), (p_lo, p_hi) = 10.0**NOISE_BOUNDS
-    stated = re.search(
-        r"priors on ([\d.]+)-([\d.]+) and ([\d.]+)-([\d.]+) degrees",
-        text("docs/method/inference.rst"),
-    )
-    assert np.allclose([float(g) for g in stated.groups()], [m_lo, m_hi, p_lo, p_hi], rtol=1e-12)
+    # the page writes the four bounds from the code, and the samplers' box is those bounds
+    page = text("docs/method/inference.rst")
+    for i in range(2):
+        for j in range(2):
+            assert f":value:`fitdf.inference.noise.NOISE_RANGES[{i}][{j}]`" in page
+    assert np.allclose(10.0**NOISE_BOUNDS, NOISE_RANGES, rtol=1e-12)
 
 
 def test_the_command_line_defaults_the_inference_page_states_are_the_parsers():

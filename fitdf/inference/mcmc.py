@@ -12,12 +12,12 @@ Notes
 -----
 The likelihood is the Gaussian of
 :meth:`~fitdf.inference.problem.FitProblem.pointwise_loglike` with two fitted noise scales,
-magnitude and phase, under log-uniform priors on :data:`NOISE_BOUNDS` (0.001-0.3 and
-0.1-50 degrees, wide around the tables' printed precision); by default they are integrated
-out of the likelihood (:mod:`fitdf.inference.noise`) and drawn afterwards for the draws
-PSIS-LOO uses. Each parameter has a uniform prior on its internal coordinate inside its
-bounds (log-uniform for log-scaled parameters), times the problem's Gaussian priors (the
-winding resistance's). The walkers move in the logit coordinates of that box, with the
+magnitude and phase, under log-uniform priors on
+:data:`~fitdf.inference.noise.NOISE_RANGES` (wide around the tables' printed precision); by
+default they are integrated out of the likelihood (:mod:`fitdf.inference.noise`) and drawn
+afterwards for the draws PSIS-LOO uses. Each parameter has a uniform prior on its internal
+coordinate inside its bounds (log-uniform for log-scaled parameters), times the problem's
+Gaussian priors (the winding resistance's). The walkers move in the logit coordinates of that box, with the
 log-Jacobian added, so the posterior is unchanged. A pilot of at least ``2 d + 2`` walkers
 starts in a ball of the least-squares covariance, runs one round of differential evolution,
 then rounds of the production moves adapted to the previous round, until a round's draws
@@ -71,6 +71,7 @@ __all__ = [
     "default_moves",
     "LogPosterior",
     "NOISE_BOUNDS",
+    "PILOT_STEPS",
     "chain_diagnostics",
     "autocorr_time",
     "is_converged",
@@ -384,6 +385,10 @@ def _pilot(logpost, start, pilot_steps, max_pilot_rounds, random_state, rng, pro
     return out
 
 
+#: Steps of a pilot round (no more than ``n_steps``).
+PILOT_STEPS = 300
+
+
 def fit_mcmc(
     problem: FitProblem,
     lsq: FitResult,
@@ -409,8 +414,8 @@ def fit_mcmc(
     job of its own is a helper (:func:`_pilot`, :func:`_production_moves`,
     :func:`_run_until_converged`, :func:`_map_point`, :func:`_mcmc_info`).
 
-    A pilot of rounds of ``pilot_steps`` (default ``min(300, n_steps)``) with ``n_walkers``
-    walkers (at least ``2 d + 2``): one of differential evolution, then up to
+    A pilot of rounds of ``pilot_steps`` (default ``min(PILOT_STEPS, n_steps)``) with
+    ``n_walkers`` walkers (at least ``2 d + 2``): one of differential evolution, then up to
     ``max_pilot_rounds`` of adapted moves until settled; it adapts the production moves
     (module docstring) and is discarded;
     production continues ``n_chains`` of its walkers as independent chains. ``moves``, if
@@ -438,7 +443,7 @@ def fit_mcmc(
     # the pilot's differential evolution needs at least twice as many walkers as dimensions
     n_walkers = max(n_walkers or 0, 2 * ndim + 2)
     n_walkers += n_walkers % 2
-    pilot_steps = min(300, n_steps) if pilot_steps is None else int(pilot_steps)
+    pilot_steps = min(PILOT_STEPS, n_steps) if pilot_steps is None else int(pilot_steps)
     # (the ball has the noise scales' coordinates too; the same draws whether or not they
     # are integrated out)
     p0 = _initial_ball(problem, lsq, n_walkers, rng, np.vstack([logpost.bounds[:P], NOISE_BOUNDS]))

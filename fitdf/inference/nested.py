@@ -15,7 +15,7 @@ prior is explicit, and it decides the evidence. Each parameter's is a map of the
 interval to its internal coordinate (:class:`PriorTransform`): uniform on its box
 (:meth:`FitProblem.internal_bounds`), which is log-uniform in natural units for a
 log-scaled parameter, or, for a parameter with a Gaussian prior in ``problem.priors``
-(today the series resistance's log-normal), that normal truncated to the box, by its
+(the series resistance's log-normal), that normal truncated to the box, by its
 inverse distribution function. The two noise scales are integrated out of the likelihood
 under their normalised log-uniform priors (:mod:`fitdf.inference.noise`). These are the
 priors MCMC samples (:mod:`fitdf.inference.mcmc`) with their constants, so both give the

@@ -33,14 +33,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import logsumexp
 
-__all__ = ["NOISE_BOUNDS", "NOISE_NAMES", "NoiseMarginal"]
+__all__ = ["NOISE_RANGES", "NOISE_BOUNDS", "NOISE_NAMES", "NoiseMarginal"]
 
-#: log10 bounds of the fitted noise scales (magnitude, phase in degrees): the prior of a
+#: Bounds of the fitted noise scales (magnitude, phase in degrees): the prior of a
 #: measurement noise. The magnitude's upper bound is 0.3: 30 times the tables' printed
 #: precision and twice the largest magnitude RMS of any law's least-squares fit (0.15); a
 #: wider box admits a posterior mode in which a law predicting DF ~ 0 trades every
 #: magnitude for its phases (``tests/test_noise_marginal.py``).
-NOISE_BOUNDS = np.array([[-3.0, np.log10(0.3)], [-1.0, np.log10(50.0)]])
+NOISE_RANGES = ((0.001, 0.3), (0.1, 50.0))
+#: :data:`NOISE_RANGES` in log10, the coordinates the samplers move in.
+NOISE_BOUNDS = np.log10(np.array(NOISE_RANGES))
 NOISE_NAMES = ("sigma_magnitude", "sigma_phase_deg")
 
 
