@@ -408,7 +408,3 @@ def conclusion_claims(results: dict) -> list[dict]:
     if not any(rec.get("ranking_lsq") for rec in results["blocks"].values()):
         kinds = ("use",)
     return paragraph(results, *((f"conclusion.{k}", {}) for k in kinds))
-
-
-def _finite(x) -> bool:
-    return isinstance(x, (int, float)) and math.isfinite(x)
