@@ -18,9 +18,8 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from referee import referee_row
+from referee import referee_row, reference_backward_euler
 from scipy.integrate import dblquad
-from test_voltage_chain import reference_backward_euler
 
 import fitdf
 from fitdf.chains import VoltageChain

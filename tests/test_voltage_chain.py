@@ -26,9 +26,9 @@ import subprocess
 import sys
 import warnings
 
-import numba
 import numpy as np
 import pytest
+from referee import reference_backward_euler
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
@@ -233,51 +233,6 @@ def reference_rayleigh(theta, V, f, R, I_guess, method="LSODA"):
         I = hi if G(hi) >= 0 else brentq(G, 0.5 * I_guess, hi, xtol=1e-15, rtol=1e-11)
         y = run(I)
     return 2 / np.pi * (y[1] + 1j * y[2]) / V, I
-
-
-@numba.njit
-def _backward_euler_half(x, B, V, R, w, t0, n):
-    """Rising half period by backward Euler, ``n`` equal steps: ``(i_max, int e sin, int e cos)``."""
-    h = np.pi / n
-    c = h * R / w
-    i, lam, j, Es, Ec = x[0], B[0], 0, 0.0, 0.0
-    for k in range(1, n + 1):
-        t = t0 + k * h
-        rhs = lam + (h / w) * V * np.sin(t)
-        if lam + c * i >= rhs:  # the current would fall: its maximum is reached
-            break
-        while j < x.shape[0] - 2 and B[j + 1] + c * x[j + 1] < rhs:
-            j += 1
-        f0, f1 = B[j] + c * x[j], B[j + 1] + c * x[j + 1]
-        u = (rhs - f0) / (f1 - f0)
-        i_new, lam_new = x[j] + u * (x[j + 1] - x[j]), B[j] + u * (B[j + 1] - B[j])
-        e = w * (lam_new - lam) / h
-        Es += e * np.sin(t) * h
-        Ec += e * np.cos(t) * h
-        i, lam = i_new, lam_new
-    return i, Es, Ec
-
-
-def reference_backward_euler(model, theta, V, f, R, I_guess, span=0.03):
-    """(DF, I_p) of any law: backward Euler on a dense table, Richardson over two step counts."""
-    kw = dict(zip(model.param_names(), theta))
-    w = 2 * np.pi * f
-    out = []
-    for n in (1 << 20, 1 << 21):
-
-        def run(I, n=n):
-            x = np.linspace(-I, I, 200001)
-            B = np.maximum.accumulate(
-                np.broadcast_to(model.ascending_branch(x, I, f, **kw), x.shape)
-            )
-            return _backward_euler_half(x, B, V, R, w, -np.arcsin(min(R * I / V, 1.0)), n)
-
-        lo, hi = I_guess * (1 - span), min(I_guess * (1 + span), V / R)
-        I = brentq(lambda I: run(I)[0] - I, lo, hi, xtol=1e-15, rtol=1e-12)
-        _, Es, Ec = run(I)
-        out.append((2 / np.pi * (Es + 1j * Ec) / V, I))
-    (d1, I1), (d2, I2) = out
-    return 2 * d2 - d1, 2 * I2 - I1
 
 
 # ---------------------------------------------------------------- accuracy
