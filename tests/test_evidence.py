@@ -148,6 +148,8 @@ def test_the_halved_box_is_restricted_from_the_draws_or_sampled_when_few_fall_in
                 "log_evidence_error": 0.07,
                 "converged": True,
                 "n_effective": 500.0,
+                "n_likelihood_evaluations": 3000,
+                "seconds": 12.5,
             },
             samples=np.repeat(centre[None, None], 600, axis=0),
         )
@@ -172,6 +174,8 @@ def test_the_halved_box_is_restricted_from_the_draws_or_sampled_when_few_fall_in
     assert double["shift"] == pytest.approx(occam_double, abs=1e-12)
     assert double["shift_error"] == 0.0 and double["share_outside"] == 0.0
     assert double["sampled_log_evidence"] == -10.0 + occam_double
+    # what the run cost, for the report's cost table (its posterior's seconds told apart)
+    assert double["seconds"] == 12.5 and double["n_likelihood_evaluations"] == 3000
     assert len(sampled) == 1
     np.testing.assert_allclose(
         sampled[0], problem.with_box_scaled(2.0).internal_bounds(), rtol=1e-12

@@ -412,6 +412,27 @@ def test_the_cost_table_counts_the_runs_a_posterior_job_sampled():
     assert costs.cost_record(_costed(), known=known)["run"]["command"] == "fitdf report --full"
 
 
+def test_a_posterior_job_is_split_from_its_boxes_by_their_recorded_seconds(monkeypatch):
+    """Boxes that record their runs' seconds: the table holds the posterior's seconds (the
+    job's less its boxes') and the boxes' beside it, so a run without the prior's sensitivity
+    is planned at the posterior's alone and one with it at the whole job; a posterior the
+    table lacks gets the table's ratio of box to posterior seconds."""
+    results = _costed()
+    boxes = results["blocks"]["B.3"]["fits_posterior"]["preisach"]["diagnostics"]
+    boxes["prior_sensitivity"]["boxes"][1]["seconds"] = 240.0  # the doubled box missed: long
+    record = costs.cost_record(results)
+    assert record["jobs_s"]["nested B.3 preisach"] == 60.0
+    assert record["sensitivity_s"] == {"nested B.3 preisach": 240.0}
+    # the others are as before: no seconds recorded, the job shared among its runs
+    assert record["jobs_s"]["nested B.3 cubic_hc"] == 100.0
+    monkeypatch.setattr(costs, "_SECONDS", {k: float(v) for k, v in record["jobs_s"].items()})
+    monkeypatch.setattr(costs, "_SENSITIVITY_SECONDS", record["sensitivity_s"])
+    assert costs._box_seconds("nested B.3 preisach", 60.0) == 240.0
+    assert costs._box_seconds("nested B.5 preisach", 50.0) == 200.0  # the ratio, 4
+    monkeypatch.setattr(costs, "_SENSITIVITY_SECONDS", {})
+    assert costs._box_seconds(None, 50.0) == 50.0 * len(costs.SAMPLED_FACTORS)
+
+
 def test_the_refresh_command_writes_the_file_the_estimates_read(tmp_path, monkeypatch, capsys):
     """``python -m fitdf.report.refresh_costs REPORT`` writes the record of REPORT's results.json,
     which is what the package reads as the committed costs."""
@@ -423,7 +444,7 @@ def test_the_refresh_command_writes_the_file_the_estimates_read(tmp_path, monkey
     assert written == costs.cost_record(results) and written["run"]["cores"] == 4
     assert "4 jobs of `fitdf report --full`, 1235 s on 2 workers" in capsys.readouterr().out
     # the package's own file has that shape, and its jobs are the table the estimates read
-    assert set(costs.COMMITTED) == {"run", "settings", "jobs_s", "aicc"}
+    assert set(costs.COMMITTED) == {"run", "settings", "jobs_s", "sensitivity_s", "aicc"}
     assert costs.COMMITTED_AICC is costs.COMMITTED["aicc"]
     assert (
         costs.expected_seconds(("nested", "B.4", "preisach"))

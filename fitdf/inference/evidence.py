@@ -241,6 +241,9 @@ def prior_sensitivity(result, lsq, seed=0, factors=SENSITIVITY_FACTORS, **nested
             "log_evidence_error": again["log_evidence_error"],
             "converged": bool(again["converged"]),
             "estimate": "sampled",
+            # what the run cost, so that a report's cost table tells it from the posterior's
+            "n_likelihood_evaluations": again.get("n_likelihood_evaluations"),
+            "seconds": again.get("seconds"),
         }
         if f > 1:
             wide = widened_log_evidence(

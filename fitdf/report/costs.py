@@ -5,8 +5,8 @@ Expected seconds
     ``committed_costs.json`` (beside this module, read into :data:`COMMITTED`) holds every
     job of the committed report as it ran there (``jobs_s``: the seconds each job took), on
     its machine (``run``), with the settings that set what a job costs (``settings``); a
-    posterior job that sampled its prior's sensitivity too is entered as one of the runs it
-    sampled (:func:`cost_record`). A job the table lacks -- another law, block or
+    posterior job that sampled its prior's sensitivity too is entered at its posterior's
+    seconds, its boxes' beside it (``sensitivity_s``; :func:`cost_record`). A job the table lacks -- another law, block or
     cross-impedance direction -- is expected to cost the mean of the table's jobs of its kind
     on its block (or direction), else of its kind. The report's progress display scales these
     by what this machine measures as jobs finish (:mod:`fitdf.report.progress`).
@@ -145,6 +145,22 @@ def _mean(kind: str, group: str) -> float:
     if not same and kind in _DERIVED:
         return _DERIVED[kind] * _mean("lsq", group)
     return statistics.fmean(closer or same or [1.0])
+
+
+#: Seconds the committed report's posterior jobs spent sampling their prior's boxes again.
+_SENSITIVITY_SECONDS = {key: float(s) for key, s in (COMMITTED.get("sensitivity_s") or {}).items()}
+
+
+def _box_seconds(name: str | None, posterior_s: float) -> float:
+    """Seconds a posterior's prior boxes are expected to take beside its own ``posterior_s``:
+    the committed report's for that job, else its posteriors' ratio of the two, else one more
+    posterior per sampled box."""
+    if name in _SENSITIVITY_SECONDS:
+        return _SENSITIVITY_SECONDS[name]
+    pairs = [(s, _SECONDS[k]) for k, s in _SENSITIVITY_SECONDS.items() if _SECONDS.get(k)]
+    if pairs:
+        return posterior_s * sum(b for b, _ in pairs) / sum(p for _, p in pairs)
+    return posterior_s * len(SAMPLED_FACTORS)
 
 
 def expected_seconds(key) -> float:
@@ -330,8 +346,11 @@ def _second_phase_jobs(settings, models, blocks, n, kind, posterior, printed, cr
         )
         # a posterior with the prior's sensitivity samples once more (the box doubled; the
         # halved box is restricted from its draws) in the same job
-        posteriors = [(k, s * (1 + len(SAMPLED_FACTORS) * (i < n["sens"]))) for i, (k, s) in
-                      enumerate(posteriors)]  # fmt: skip
+        keys = [" ".join((kind, b, m)) for m in laws] if isinstance(laws, list) else []
+        posteriors = [
+            (k, s + (i < n["sens"]) * _box_seconds(keys[i] if keys else None, s))
+            for i, (k, s) in enumerate(posteriors)
+        ]
         second += posteriors + unknown_laws("cv", b, n["cv"])
         if settings.approximate_chain:
             second += [("approx", expected_seconds(("approx", b, m))) for m in models]
@@ -401,16 +420,29 @@ def rough(settings) -> bool:
     return any(getattr(settings, k) != COMMITTED_SETTINGS.get(k) for k in COST_SETTINGS)
 
 
-def _sampler_runs(results: dict, key: str) -> int:
-    """How many times a report job sampled: 1, or for a posterior with its prior's
-    sensitivity 1 plus the boxes it sampled again (not those restricted from its draws)."""
+def _sampled_boxes(results: dict, key: str) -> list[dict]:
+    """The prior boxes a report's posterior job sampled again (not those restricted from its
+    draws); none for another job."""
     w = key.split()
     if w[0] != "nested":
-        return 1
+        return []
     fits = results["blocks"].get(w[1], {}).get("fits_posterior", {})
     fit = fits.get(" ".join(w[2:]), {})
     boxes = ((fit.get("diagnostics") or {}).get("prior_sensitivity") or {}).get("boxes") or []
-    return 1 + sum(b.get("estimate", "sampled") != "restricted" for b in boxes)
+    return [b for b in boxes if b.get("estimate", "sampled") != "restricted"]
+
+
+def _split_seconds(results: dict, key: str, seconds: float) -> tuple[float, float | None]:
+    """A job's seconds as ``(posterior's, its prior boxes')``: the boxes' from their runs'
+    recorded seconds; for a record without them, the job's seconds shared equally among its
+    runs (the boxes' then None)."""
+    boxes = _sampled_boxes(results, key)
+    if not boxes:
+        return seconds, None
+    if all(b.get("seconds") is not None for b in boxes):
+        sens = sum(float(b["seconds"]) for b in boxes)
+        return max(seconds - sens, 0.0), sens
+    return seconds / (1 + len(boxes)), None
 
 
 def cost_record(results: dict, known: dict | None = None) -> dict:
@@ -423,14 +455,17 @@ def cost_record(results: dict, known: dict | None = None) -> dict:
     else None. ``settings``: those of
     :data:`COST_SETTINGS`; ``jobs_s``: the seconds of each job (``timing.jobs_s``), a
     posterior job that also sampled its prior's box again (doubled, and halved where the
-    posterior's draws could not give it) at its seconds over its runs (the plan multiplies
-    them back for such a job), so that every ``nested`` entry is one posterior's seconds;
+    posterior's draws could not give it) at its seconds less its boxes' runs, so that every
+    ``nested`` entry is one posterior's seconds; ``sensitivity_s``: those boxes' seconds, by
+    job (a record whose boxes lack their seconds shares the job's equally among its runs
+    and has none: the plan then counts each box as one more posterior);
     ``aicc``: each block's least-squares AICc of each law, best first (``ranking_lsq``), from
     which the plan tells which laws a run samples (:func:`planned_posteriors`).
     """
     results = upgrade(results)
     timing = results["timing"]
     jobs = timing["jobs_s"]
+    split = {k: _split_seconds(results, k, s) for k, s in jobs.items()}
     run = {
         "cpu": timing["machine"]["cpu"],
         "cores": timing.get("cores"),
@@ -441,7 +476,8 @@ def cost_record(results: dict, known: dict | None = None) -> dict:
     return {
         "run": {k: (known or {}).get(k) if v is None else v for k, v in run.items()},
         "settings": {k: results["settings"].get(k) for k in COST_SETTINGS},
-        "jobs_s": {k: round(s / _sampler_runs(results, k), 2) for k, s in jobs.items()},
+        "jobs_s": {k: round(split[k][0], 2) for k in jobs},
+        "sensitivity_s": {k: round(b, 2) for k, (_, b) in split.items() if b is not None},
         "aicc": {
             key: {row["model"]: row["aicc"] for row in block.get("ranking_lsq") or []}
             for key, block in results["blocks"].items()
