@@ -10,17 +10,21 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy import stats
+from scipy.optimize import brentq
 
 import fitdf.limit_cycle_tables.comparison as comparison
 from fitdf._json import clean
 from fitdf.data import datasets
+from fitdf.inference.api import resolve_data
 from fitdf.limit_cycle_tables import (
     THESIS_BLOCKS,
+    THESIS_PLANT,
     estimate_thesis_scales,
     held_out_scales,
     limit_cycle_statements,
     per_block_scales,
 )
+from fitdf.limit_cycle_tables.data_bound import data_implied_critical_gains, row_balance_gains
 from fitdf.limit_cycle_tables.summary import (
     LEVEL_CONFIDENCE,
     _position,
@@ -89,6 +93,7 @@ def synthetic_comparison() -> pd.DataFrame:
                         "omega_ratio": Wp / W,
                         "n_stable": 1,
                         "critical_gain_pred": crit,
+                        "critical_omega_pred": 3.0 + crit / 100.0,
                         "extrapolated": setting == "unscaled" and K >= 800.0,
                         "sim_state": "unsettled" if dies and table == "B.2" else "oscillates",
                         "amplitude_sim": Ap * 1.02,
@@ -625,3 +630,79 @@ def test_simulated_state_at_the_drift_tolerance(monkeypatch, oscillating, drift,
     assert list(seen["initial_output"]) == [1.0, 0.8]
     assert list(seen["initial_omega"]) == [6.0, 4.0]
     assert seen["time_scale"] == 2.0
+
+
+# ------------------------------------------------------------------ the rows' own critical gains
+def _scalar_balance(D, plant=lambda s: 1 / ((1 + s) * (1 + 0.25 * s) * (1 + 1.1 * s))):
+    """A root finder on the thesis plant's phase, row by row (not the tabulated interpolation)."""
+
+    def lag(w):
+        return math.atan(w) + math.atan(0.25 * w) + math.atan(1.1 * w)
+
+    w = brentq(lambda w: lag(w) - math.pi - np.angle(D), 1e-3, 1e3, xtol=1e-14, rtol=1e-14)
+    return w, 1 / (abs(D) * abs(plant(1j * w)))
+
+
+def test_row_balance_gains_match_a_root_finder():
+    D = np.array([0.99, 0.95 * np.exp(0.3j), 0.2 * np.exp(1.2j), 0.5 * np.exp(-0.1j)])
+    omega, gain = row_balance_gains(D, THESIS_PLANT)
+    for k, d in enumerate(D):
+        w, g = _scalar_balance(d)
+        assert omega[k] == pytest.approx(w, rel=1e-6) and gain[k] == pytest.approx(g, rel=1e-6)
+    # a lead above 90 degrees asks a phase beyond the plant's -270: no loop closes
+    assert np.isnan(row_balance_gains(np.array([np.exp(1.7j)]), THESIS_PLANT)[1][0])
+    with pytest.raises(ValueError, match="monotonically"):
+        row_balance_gains(D, "K*(s^2+0.1*s+4)/((s+1)^4)")
+
+
+def test_data_implied_critical_gains_of_a_printed_table():
+    """Table B.3's rows: the smallest balance gain per frequency, recomputed row by row."""
+    data = resolve_data("B.3")
+    got = data_implied_critical_gains(data, THESIS_PLANT)
+    freqs = sorted(set(data.frequency))
+    assert [r["frequency_hz"] for r in got["by_frequency"]] == freqs
+    for r in got["by_frequency"]:
+        at = np.flatnonzero(data.frequency == r["frequency_hz"])
+        gains = [_scalar_balance(data.measured[i])[1] for i in at]
+        j = at[int(np.argmin(gains))]
+        assert r["critical_gain"] == pytest.approx(min(gains), rel=1e-6)
+        assert r["input_v"] == data.amplitude[j]
+    lowest, highest = got["by_frequency"][0], got["by_frequency"][-1]
+    assert got["lowest_frequency_hz"] == freqs[0] == 3.0
+    assert got["critical_gain"] == lowest["critical_gain"]
+    assert got["rise"] == pytest.approx(lowest["critical_gain"] / highest["critical_gain"])
+    # the 600-ohm rows' gains rise as the frequency falls (40 at 3 c/s, 16 at 10 c/s)
+    assert 35 < got["critical_gain"] < 45 and 2.0 < got["rise"] < 3.0
+
+
+def test_rows_imply_sentence(attrs):
+    """Recomputed from the record: each table's implied gain at its lowest frequency, the
+    die-out gain and their ratio, the rise over frequency and where the critical points lie."""
+    implied = {
+        t: {"critical_gain": 10.0 + i, "lowest_frequency_hz": 3.0, "rise": 1.0 + i / 10}
+        for i, t in enumerate(SPEC)
+    }
+    s = limit_cycle_statements({**attrs, "data_implied": implied})
+    cg = attrs["critical_gains"]
+    rows = "; ".join(
+        f"{c['table']} {implied[c['table']]['critical_gain']:.0f} (at 3 c/s; "
+        f"{c['measured_dies_out_at']:.0f} died out, "
+        f"{c['measured_dies_out_at'] / implied[c['table']]['critical_gain']:.1f} times higher)"
+        for c in cg
+    )
+    omega = [c["predicted"]["unscaled"]["critical_omega_rad_s"] for c in cg]
+    below = sum(w / (2 * math.pi) < 3.0 for w in omega)
+    assert below == 4  # 3.2-4.5 rad/s: 0.5-0.72 c/s
+    assert s["rows_imply"] == (
+        "With no law fitted, each Appendix B row taken as the core's describing function where "
+        "it balances the printed plant closes the loop at a gain; the smallest at each table's "
+        f"lowest measured frequency: {rows}. From the highest measured frequency to the lowest "
+        "these gains change by a factor "
+        + ", ".join(f"{c['table']} {implied[c['table']]['rise']:.2f}" for c in cg)
+        + f". The unscaled critical points lie at {min(omega):.2g}-{max(omega):.2g} rad/s "
+        f"({min(omega) / (2 * math.pi):.2g}-{max(omega) / (2 * math.pi):.2g} c/s), below every "
+        f"measured frequency in {below} of the 4 blocks: there the critical gain rests on the "
+        "law's describing function below the rows, an extrapolation no row measures."
+    )
+    # a record without the rows' gains (an earlier report) has no such sentence
+    assert "rows_imply" not in limit_cycle_statements(attrs)

@@ -30,6 +30,7 @@ from fitdf.data import datasets
 from fitdf.inference.api import fit
 from fitdf.inference.ranking import best_by_aicc
 from fitdf.limit_cycle_tables import summary
+from fitdf.limit_cycle_tables.data_bound import data_implied_critical_gains
 from fitdf.limit_cycle_tables.scales import (
     THESIS_BLOCKS,
     THESIS_PLANT,
@@ -131,8 +132,9 @@ def _predict_block(block, fit_, N, alpha, beta, amplitude_range):
     out["omega_ratio"] = fw / block["omega_rad_s"].to_numpy(float)
     out["n_stable"] = pred["n_stable"].to_numpy(int)
     out["critical_gain_pred"] = resp.critical_gain / beta
+    out["critical_omega_pred"] = float(resp.critical_point.get("omega", np.nan))
     out["extrapolated"] = np.isfinite(fa) & ~inside
-    return out, float(resp.critical_point.get("omega", np.nan))
+    return out, out["critical_omega_pred"].iloc[0]
 
 
 def _simulate_block(block, fit_, rs, critical_omega):
@@ -326,6 +328,10 @@ def _record(df, osc, fits, held, given) -> dict:
             "given": given,
         },
         **summary.summarise(df),
+        "data_implied": {
+            THESIS_BLOCKS[k]: data_implied_critical_gains(f.problem.data, THESIS_PLANT)
+            for k, f in fits.items()
+        },
         "fits": {
             THESIS_BLOCKS[k]: {
                 "model": f.model,

@@ -186,6 +186,44 @@ def _critical(cg, dead) -> str:
     )
 
 
+def _rows_imply(cg, implied) -> str | None:
+    """What the Appendix B rows say of the critical gains with no law fitted
+    (:mod:`fitdf.limit_cycle_tables.data_bound`), and where the laws' critical points lie."""
+    cg = [c for c in cg if c["table"] in implied and implied[c["table"]]["critical_gain"]]
+    if not cg:
+        return None
+    rows = "; ".join(
+        f"{c['table']} {_num(implied[c['table']]['critical_gain'], '.0f')} (at "
+        f"{_num(implied[c['table']]['lowest_frequency_hz'], 'g')} c/s; "
+        f"{_num(c['measured_dies_out_at'], '.0f')} died out, "
+        f"{_num(_ratio(c['measured_dies_out_at'], implied[c['table']]['critical_gain']), '.1f')} "
+        "times higher)"
+        for c in cg
+    )
+    rise = ", ".join(f"{c['table']} {_num(implied[c['table']]['rise'], '.2f')}" for c in cg)
+    omega = [c["predicted"]["unscaled"].get("critical_omega_rad_s") for c in cg]
+    where = ""
+    if all(w is not None for w in omega):
+        lowest = min(implied[c["table"]]["lowest_frequency_hz"] for c in cg)
+        below = sum(w / (2 * math.pi) < lowest for w in omega)
+        where = (
+            f" The unscaled critical points lie at {_range(omega, '.2g')} rad/s "
+            f"({_range([w / (2 * math.pi) for w in omega], '.2g')} c/s), below every measured "
+            f"frequency in {below} of the {len(cg)} blocks: there the critical gain rests on "
+            "the law's describing function below the rows, an extrapolation no row measures."
+        )
+    return (
+        "With no law fitted, each Appendix B row taken as the core's describing function where "
+        "it balances the printed plant closes the loop at a gain; the smallest at each "
+        f"table's lowest measured frequency: {rows}. From the highest measured frequency to the "
+        f"lowest these gains change by a factor {rise}.{where}"
+    )
+
+
+def _ratio(a, b):
+    return None if a is None or not b else a / b
+
+
 def _time_domain(td, dead, setting) -> str:
     a = td[setting]["all"]
     rows = [d["settings"][setting] for d in dead]
@@ -305,7 +343,8 @@ def limit_cycle_statements(attrs: dict) -> dict:
     -------
     dict
         ``finding`` (the report's one-line finding), ``unscaled``, ``scales``, ``held_out``,
-        ``levels``, ``trends``, ``order``, ``critical``, ``time_domain_<setting>`` for each
+        ``levels``, ``trends``, ``order``, ``critical``, ``rows_imply`` (with the record's
+        ``data_implied``), ``time_domain_<setting>`` for each
         simulated setting, ``confirmed`` and ``not_confirmed``, in that order.
     """
     ag, sc, cg, dead = (
@@ -325,6 +364,9 @@ def limit_cycle_statements(attrs: dict) -> dict:
     out["trends"] = _trends(attrs["trends"])
     out["order"] = _order(attrs["impedance_order"])
     out["critical"] = _critical(cg, dead)
+    implied = _rows_imply(cg, attrs.get("data_implied") or {})
+    if implied:
+        out["rows_imply"] = implied
     for setting in attrs.get("time_domain") or {}:
         out[f"time_domain_{setting}"] = _time_domain(attrs["time_domain"], dead, setting)
     out["confirmed"], out["not_confirmed"] = _verdicts(attrs)

@@ -196,7 +196,7 @@ def _position(pred, lo, hi) -> str:
 
 def critical_gains(df) -> list:
     """Per block: the measured die-out bracket and, per setting, the predicted critical gain
-    (system-gain units), its position against the bracket and its ratio to the bracket's lower
+    (system-gain units) and the angular frequency of its critical point, its position against the bracket and its ratio to the bracket's lower
     end (``die_out_over_predicted``: how far below the largest gain that died out)."""
     rows = []
     first = df[df["setting"] == df["setting"].iloc[0]]
@@ -216,6 +216,9 @@ def critical_gains(df) -> list:
             pred = float(s["critical_gain_pred"].iloc[0])
             rec["predicted"][setting] = {
                 "critical_gain": pred,
+                "critical_omega_rad_s": float(s["critical_omega_pred"].iloc[0])
+                if "critical_omega_pred" in s
+                else None,
                 "position": _position(pred, lo, hi),
                 "die_out_over_predicted": lo / pred if lo is not None and pred > 0 else np.nan,
             }
