@@ -42,9 +42,9 @@ RANK_CHOICES = (
     "log_evidence",
 )
 #: Noise laws (``fitdf.inference.noise_models.NOISE_LAWS``; the first is the default) and
-#: those the samplers take (``fitdf.inference.api.SAMPLED_NOISE``).
+#: those MCMC takes (``fitdf.inference.api.MCMC_NOISE``).
 NOISE_CHOICES = ("printed", "constant", "reading", "student", "reading-student")
-SAMPLED_NOISE = ("printed", "constant")
+MCMC_NOISE = ("printed", "constant")
 #: Row policies (``fitdf.data.audit.POLICIES``; the first is the default) and the other
 #: names they answer to (``fitdf.data.audit.POLICY_ALIASES``).
 POLICY_CHOICES = ("trusted", "reordered", "as_printed", "all", "strict")
@@ -271,8 +271,8 @@ def validate(args) -> None:
         raise OptionError(f"--rank-by {args.rank_by} needs --method nested, mcmc or both")
     if getattr(args, "rank_by", None) == "log_evidence" and args.method not in ("nested", "both"):
         raise OptionError("--rank-by log_evidence needs --method nested or both")
-    if getattr(args, "noise", SAMPLED_NOISE[0]) not in SAMPLED_NOISE and args.method != "lsq":
-        raise OptionError(f"--noise {args.noise} needs --method lsq")
+    if getattr(args, "noise", MCMC_NOISE[0]) not in MCMC_NOISE and args.method in ("mcmc", "both"):
+        raise OptionError(f"--noise {args.noise} needs --method lsq or nested")
 
 
 # ------------------------------------------------------------------ shared options
@@ -454,7 +454,7 @@ def _fit_model_options(sp) -> None:
         help="measurement-noise law: printed (default) weighs the rows by the tables' printed "
         "precision; constant fits one magnitude and one phase scale; reading fits a floor and "
         "an output-reading resolution each, the errors growing as the input falls; student and "
-        "reading-student the same with Student-t errors (those three: --method lsq only; "
+        "reading-student the same with Student-t errors (those three: --method lsq or nested; "
         "docs/method/noise.rst)",
     )
     sp.add_argument(

@@ -18,7 +18,7 @@ from scipy import stats
 import fitdf
 from fitdf.data.fitdata import FitData
 from fitdf.errors import OptionError
-from fitdf.inference.api import SAMPLED_NOISE, resolve_data
+from fitdf.inference.api import MCMC_NOISE, resolve_data
 from fitdf.inference.noise_models import (
     NOISE_LAWS,
     PARAMETER_BOUNDS,
@@ -254,12 +254,12 @@ def test_noise_law_names_and_bounds():
     from fitdf import cli_parser
 
     assert cli_parser.NOISE_CHOICES == tuple(NOISE_LAWS)
-    assert cli_parser.SAMPLED_NOISE == SAMPLED_NOISE
+    assert cli_parser.MCMC_NOISE == MCMC_NOISE
     for name, (lo, hi) in PARAMETER_BOUNDS.items():
         assert 0 < lo < hi, name
     with pytest.raises(OptionError, match="unknown noise law 'gaussian'"):
         get_noise_law("gaussian")
-    with pytest.raises(OptionError, match="least squares only"):
+    with pytest.raises(OptionError, match="'reading' needs method 'lsq' or 'nested'"):
         fitdf.fit("B.2", "rayleigh", method="mcmc", noise="reading")
 
 
@@ -279,7 +279,14 @@ def _run_here(*args):
     "args, fragment",
     [
         (("--noise", "gaussian"), "--noise: invalid choice: 'gaussian'"),
-        (("--noise", "reading", "--method", "nested"), "--noise reading needs --method lsq"),
+        (
+            ("--noise", "reading", "--method", "mcmc"),
+            "--noise reading needs --method lsq or nested",
+        ),
+        (
+            ("--noise", "student", "--method", "both"),
+            "--noise student needs --method lsq or nested",
+        ),
     ],
 )
 def test_cli_bad_noise_option_is_a_one_line_error(args, fragment):

@@ -20,10 +20,11 @@ DEFAULT_CHAIN = "voltage"
 
 METHODS = ("lsq", "mcmc", "nested")
 
-#: Noise laws (:mod:`fitdf.inference.noise_models`) the samplers take: their likelihood
-#: has the two ``constant`` scales (:mod:`fitdf.inference.noise`), least squares before
-#: them the printed or the fitted constant ones.
-SAMPLED_NOISE = ("printed", "constant")
+#: Noise laws (:mod:`fitdf.inference.noise_models`) MCMC takes: its likelihood has the two
+#: scales of :mod:`fitdf.inference.noise` (integrated out), least squares before it the
+#: printed or the fitted constant ones. Least squares and nested sampling take every law
+#: (nested sampling samples a fitted law's parameters with the law's).
+MCMC_NOISE = ("printed", "constant")
 
 
 def fit(
@@ -69,7 +70,8 @@ def fit(
         None: the printed precision), or the name of a noise law of
         :mod:`fitdf.inference.noise_models` whose parameters are fitted with the law's
         ("printed" is the default's name; "constant", "reading", "student",
-        "reading-student"). The laws beyond "constant" are fitted by least squares only.
+        "reading-student"). MCMC takes "printed" and "constant" only
+        (:data:`MCMC_NOISE`); nested sampling samples a fitted law's parameters.
     nested : dict, optional
         Options of :func:`~fitdf.inference.nested.fit_nested` (``n_live``,
         ``max_evaluations``, ...) for ``method="nested"``.
@@ -94,10 +96,10 @@ def fit(
     law = None
     if isinstance(noise, str):
         law, noise = get_noise_law(noise), None
-        if law.name not in SAMPLED_NOISE and method != "lsq":
+        if law.name not in MCMC_NOISE and method == "mcmc":
             raise OptionError(
-                f"noise law {law.name!r} is fitted by least squares only; method {method!r} "
-                f"samples the {' or '.join(map(repr, SAMPLED_NOISE))} noise"
+                f"noise law {law.name!r} needs method 'lsq' or 'nested'; method 'mcmc' "
+                f"samples the {' or '.join(map(repr, MCMC_NOISE))} noise"
             )
     rows = resolve_data(data, policy, source_impedance)
     problem = FitProblem(

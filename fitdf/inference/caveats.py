@@ -139,20 +139,24 @@ _NOISE_BOUND_REASONS = {
 }
 
 
-def noise_bound_warnings(log10_noise, rel=0.01, mass=0.025) -> list[str]:
+def noise_bound_warnings(log10_noise, rel=0.01, mass=0.025, law=None) -> list[str]:
     """The fitted noise scales whose posterior runs into a bound of :data:`NOISE_BOUNDS`,
     by the rule of :func:`posterior_bound_warnings` on draws ``(..., 2)`` of ``log10``
-    ``(sigma_magnitude, sigma_phase_deg)``."""
-    draws = np.asarray(log10_noise, float).reshape(-1, 2)
+    ``(sigma_magnitude, sigma_phase_deg)``; with a fitted noise ``law``
+    (:class:`~fitdf.inference.noise_models.NoiseLaw`), draws ``(..., k)`` of its parameters
+    on its bounds."""
+    names, bounds = (NOISE_NAMES, NOISE_BOUNDS) if law is None else (law.names, law.bounds)
+    kind = "noise scale" if law is None else f"{law.name} noise law's parameter"
+    draws = np.asarray(log10_noise, float).reshape(-1, len(names))
     out = []
-    for j, name in enumerate(NOISE_NAMES):
-        lo, hi = NOISE_BOUNDS[j]
+    for j, name in enumerate(names):
+        lo, hi = bounds[j]
         side, share = _bound_share(draws[:, j], lo, hi, rel)
         if share < mass:
             continue
         bound = 10.0 ** (lo if side == "lower" else hi)
         out.append(
-            f"the posterior of the noise scale {name} runs into its {side} bound {bound:.3g}"
+            f"the posterior of the {kind} {name} runs into its {side} bound {bound:.3g}"
             f"{_NOISE_BOUND_REASONS.get((name, side), '')}: {100 * share:.0f} % of the "
             f"draws lie within {100 * rel:g} % of the box from it; the box, not the data, ends it"
         )

@@ -486,16 +486,8 @@ def _fit_with_noise(problem: FitProblem, seed, starts, uncertainties, kw) -> Fit
     result = _fit_fixed(final, seed, starts=x, uncertainties=uncertainties, max_nfev=kw["max_nfev"])
     radial, tang = problem.error_components(problem.predict(result.internal))
     theta, loglike = law.fit(radial, tang, ctx, theta)
-    k = problem.ndim + len(law.names)
     n = law.n_terms(ctx)
-    aic = -2.0 * loglike + 2.0 * k
-    result.metrics.update(
-        log_likelihood=float(loglike),
-        n_noise_params=len(law.names),
-        aic=float(aic),
-        aicc=float(aic + (2.0 * k * (k + 1) / (n - k - 1) if n - k - 1 > 0 else np.inf)),
-        bic=float(-2.0 * loglike + k * np.log(n)),
-    )
+    result.metrics.update(law.criteria(loglike, problem.ndim, ctx))
     result.info["noise_law"] = {
         "name": law.name,
         "values": law.natural(theta),

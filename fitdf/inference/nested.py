@@ -84,7 +84,13 @@ from scipy.stats import truncnorm
 from fitdf.inference.convergence import MAX_LOG_EVIDENCE_ERROR, MIN_EFFECTIVE
 from fitdf.inference.noise import NoiseMarginal
 from fitdf.inference.posterior import PERCENTS, QUANTILES, posterior_result
-from fitdf.inference.priors import noise_prior_description, noise_priors_text, prior_description
+from fitdf.inference.priors import (
+    noise_law_prior_description,
+    noise_law_priors_text,
+    noise_prior_description,
+    noise_priors_text,
+    prior_description,
+)
 from fitdf.inference.problem import FitProblem
 from fitdf.inference.results import FitResult, PosteriorResult
 
@@ -122,7 +128,9 @@ class PriorTransform:
     Uniform on each parameter's box (:meth:`FitProblem.internal_bounds`; log-uniform in
     natural units for a log-scaled parameter); a parameter with a Gaussian prior in
     ``problem.priors`` ``(centre, sigma)`` (internal coordinates) gets that normal
-    truncated to its box, by its inverse distribution function.
+    truncated to its box, by its inverse distribution function. With a fitted noise law
+    (``problem.noise_law``) its parameters follow the law's, ``log10`` of each uniform on
+    :attr:`~fitdf.inference.noise_models.NoiseLaw.bounds`.
 
     Parameters
     ----------
@@ -133,6 +141,10 @@ class PriorTransform:
         self.specs = list(problem.specs)
         self.names = list(problem.names)
         self.bounds = np.asarray(problem.internal_bounds(), float).reshape(-1, 2)
+        self.noise_law = getattr(problem, "noise_law", None)
+        if self.noise_law is not None:
+            self.names += list(self.noise_law.names)
+            self.bounds = np.vstack([self.bounds, self.noise_law.bounds])
         self.lo = self.bounds[:, 0]
         self.width = self.bounds[:, 1] - self.bounds[:, 0]
         self.priors = dict(problem.priors)
@@ -169,29 +181,43 @@ class PriorTransform:
 
     def describe(self) -> dict:
         """Each parameter's prior in its natural units
-        (:func:`fitdf.inference.priors.prior_description`)."""
-        return prior_description(self.specs, self.priors)
+        (:func:`fitdf.inference.priors.prior_description`), a noise law's parameters'
+        included."""
+        out = prior_description(self.specs, self.priors)
+        if self.noise_law is not None:
+            out.update(noise_law_prior_description(self.noise_law))
+        return out
 
 
 class NestedLikelihood:
-    """The noise-marginal log-likelihood of ``problem`` for batches of internal vectors.
+    """The log-likelihood of ``problem`` for batches of internal vectors.
 
-    Calls :meth:`FitProblem.predict` once per batch ``(n, P)`` and returns ``(n,)``;
-    a prediction that is not finite counts as likelihood 0 (``-inf``). Counts its
-    evaluations in :attr:`n_calls`.
+    The noise-marginal one (:class:`~fitdf.inference.noise.NoiseMarginal`) of vectors
+    ``(n, P)``; with a fitted noise law (``problem.noise_law``) vectors ``(n, P + k)``, the
+    parameters then the law's ``k`` (``log10``), and the law's
+    :meth:`~fitdf.inference.noise_models.NoiseLaw.pointwise` summed over the rows. Calls
+    :meth:`FitProblem.predict` once per batch and returns ``(n,)``; a prediction that is
+    not finite counts as likelihood 0 (``-inf``). Counts its evaluations in
+    :attr:`n_calls`.
     """
 
     def __init__(self, problem: FitProblem):
         self.problem = problem
-        self.noise = NoiseMarginal(problem)
+        self.law = problem.noise_law
+        self.noise = NoiseMarginal(problem) if self.law is None else None
+        self.context = None if self.law is None else self.law.context(problem.data)
         self.n_calls = 0
 
     def __call__(self, x):
         x = np.atleast_2d(np.asarray(x, float))
         self.n_calls += x.shape[0]
+        P = self.problem.ndim
         with np.errstate(all="ignore"):
-            radial, tang = self.problem.error_components(self.problem.predict(x))
-            ll = self.noise.log_likelihood(radial, tang)
+            radial, tang = self.problem.error_components(self.problem.predict(x[:, :P]))
+            if self.law is None:
+                ll = self.noise.log_likelihood(radial, tang)
+            else:
+                ll = np.sum(self.law.pointwise(x[:, P:], radial, tang, self.context), axis=-1)
         return np.where(np.isfinite(ll), ll, -np.inf)
 
 
@@ -395,20 +421,51 @@ def _sampler_settings(
 
 def _nested_info(problem, lsq, transform, seed: int, settings: dict, n_draws: int) -> dict:
     """The run's record (``PosteriorResult.info``)."""
+    law = problem.noise_law
+    if law is None:
+        noise = {
+            "prior": {**transform.describe(), **noise_prior_description()},
+            "point_estimate": "highest-posterior draw (MAP) of the parameters' marginal posterior",
+            "noise_priors": noise_priors_text(),
+            "noise": (
+                "integrated out of the likelihood (Gauss-Legendre in log sigma), drawn given "
+                "each draw used for PSIS-LOO"
+            ),
+        }
+    else:
+        noise = {
+            "prior": transform.describe(),
+            "point_estimate": "highest-posterior draw (MAP), the noise law's parameters included",
+            "noise_priors": noise_law_priors_text(law),
+            "noise": f"the {law.name} noise law's parameters sampled with the parameters",
+        }
     return {
         "seed": seed,
         "sampler": settings,
         "start": "the prior (nested sampling); the chain's solver starts cold",
         "lsq_chi2": float(lsq.metrics.get("chi2", np.nan)),
-        "prior": {**transform.describe(), **noise_prior_description()},
-        "point_estimate": "highest-posterior draw (MAP) of the parameters' marginal posterior",
-        "noise_priors": noise_priors_text(),
-        "noise": (
-            "integrated out of the likelihood (Gauss-Legendre in log sigma), drawn given each "
-            "draw used for PSIS-LOO"
-        ),
+        **noise,
         "samples": f"{n_draws} draws resampled to equal weights (systematic)",
         "fixed": dict(problem.fixed),
+    }
+
+
+def _noise_law_record(law, point, points, weights) -> dict:
+    """The sampled noise law's parameters (``info["noise_law"]``): ``values`` and ``log10``
+    at the point estimate, the weighted posterior ``median`` and ``intervals``
+    (:data:`PERCENTS`) of each, in its unit
+    (:data:`~fitdf.inference.noise_models.PARAMETER_UNITS`)."""
+    intervals = {}
+    for j, name in enumerate(law.names):
+        q = weighted_quantiles(points[:, j], weights, [p / 100 for p in PERCENTS])
+        intervals[name] = dict(zip(QUANTILES, map(float, 10.0**q)))
+    return {
+        "name": law.name,
+        "sampled": True,
+        "values": law.natural(point),
+        "log10": [float(v) for v in point],
+        "median": {name: iv["p50"] for name, iv in intervals.items()},
+        "intervals": intervals,
     }
 
 
@@ -476,12 +533,14 @@ def fit_nested(
     # start at the optimum's currents is no faster)
     transform = PriorTransform(problem)
     loglike = NestedLikelihood(problem)
+    law = problem.noise_law
     P = problem.ndim
+    ndim = transform.ndim  # P, or P + k with a fitted noise law's parameters
     t0 = time.perf_counter()
     ns, error, rounds, finished = run_nautilus(
         transform,
         loglike,
-        P,
+        ndim,
         seed=seed,
         n_live=n_live,
         n_networks=n_networks,
@@ -497,7 +556,8 @@ def fit_nested(
     n_eff = float(ns.n_eff)
     log_z = float(ns.log_z)
 
-    point = _highest_posterior(ns, transform, P)
+    full_point = _highest_posterior(ns, transform, ndim)
+    point = full_point[:P]
 
     n_draws = int(n_draws or max(1000, int(np.ceil(n_eff))))
     idx = systematic_resample(weights, n_draws, rng)
@@ -505,9 +565,17 @@ def fit_nested(
     n_loo = min(max_loo_draws, n_draws)
     loo_idx = np.sort(rng.choice(n_draws, n_loo, replace=False))
     loo_draws = flat[loo_idx]
-    radial, tang = problem.error_components(problem.predict(loo_draws))
-    noise_draws = loglike.noise.draw(radial, tang, rng)  # log10 (n, 2)
-    intervals, stderr, corr = _weighted_summaries(problem, points, weights)
+    extra = {"log_evidence": log_z, "log_evidence_error": error}
+    if law is None:
+        radial, tang = problem.error_components(problem.predict(loo_draws))
+        loo_noise = noise_draws = loglike.noise.draw(radial, tang, rng)  # log10 (n, 2)
+    else:  # the law's parameters were sampled: each draw carries its own
+        loo_draws, loo_noise, noise_draws = loo_draws[:, :P], loo_draws[:, P:], flat[:, P:]
+        # (AICc and BIC of the law's likelihood at the point estimate, as least squares
+        # gives them at its optimum: the noise parameters counted)
+        ll_point = float(loglike(full_point[None, :])[0])
+        extra.update(law.criteria(ll_point, P, loglike.context))
+    intervals, stderr, corr = _weighted_summaries(problem, points[:, :P], weights)
 
     settings = _sampler_settings(
         ns, seed, n_live, n_networks, f_live, n_effective, max_evaluations, discard_exploration
@@ -515,18 +583,21 @@ def fit_nested(
     draws = (int(points.shape[0]), n_draws)
     diag = _run_diagnostics(ns, problem, error, rounds, finished, draws, seconds, settings)
     info = _nested_info(problem, lsq, transform, seed, settings, n_draws)
+    if law is not None:  # the noise parameters' intervals from the weighted draws, as the law's
+        info["noise_law"] = _noise_law_record(law, full_point[P:], points[:, P:], weights)
+        diag.update({f"{n}_interval": iv for n, iv in info["noise_law"]["intervals"].items()})
     which = "all" if n_loo == n_draws else f"{n_loo} (a random choice, seed {seed}) of the"
     return posterior_result(
         problem,
         "nested",
         point=point,
-        samples=flat[:, None, :],
+        samples=flat[:, None, :P],
         intervals=intervals,
         stderr=stderr,
         correlations=corr,
         noise_draws=noise_draws[:, None, :],
         loo_draws=loo_draws[:, None, :],
-        loo_noise=noise_draws[:, None, :],
+        loo_noise=loo_noise[:, None, :],
         diagnostics=diag,
         info=info,
         sampler_warnings=convergence_warnings(n_eff, error, finished, ns.n_like, max_evaluations),
@@ -534,7 +605,9 @@ def fit_nested(
             f"{which} {n_draws} draws resampled to equal weights (systematic, seed {seed}) from "
             "nautilus's weighted draws: one chain"
         ),
-        extra_metrics={"log_evidence": log_z, "log_evidence_error": error},
+        extra_metrics=extra,
+        sampled_noise=law is not None,
+        noise_law=law,
     )
 
 

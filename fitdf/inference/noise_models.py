@@ -177,9 +177,16 @@ class NoiseLaw:
             "has_phase": absD > 0,
         }
 
+    def _values(self, log_theta) -> dict:
+        """Name -> natural value of ``log10`` parameters ``(..., k)``, each ``(..., 1)`` so
+        that it broadcasts against rows (a batch of parameter vectors, a batch of rows)."""
+        x = np.asarray(log_theta, float)
+        return {n: 10.0 ** x[..., j][..., None] for j, n in enumerate(self.names)}
+
     def scales(self, log_theta, ctx):
-        """Magnitude and arc scales per row (DF units) at ``log10`` parameters."""
-        p = dict(zip(self.names, 10.0 ** np.asarray(log_theta, float)))
+        """Magnitude and arc scales per row (DF units) at ``log10`` parameters ``(k,)`` or a
+        batch ``(..., k)``: ``(n,)`` or ``(..., n)`` each."""
+        p = self._values(log_theta)
         absD = ctx["abs_d"]
         s_p = np.deg2rad(p["s_p_deg"])
         if self.reading:
@@ -187,16 +194,17 @@ class NoiseLaw:
             sm = np.hypot(p["s_m"], lever * p["r_m"])
             st = np.hypot(absD * s_p, lever * p["r_p"])
         else:
-            sm = np.full(absD.shape, p["s_m"])
+            sm = p["s_m"] * np.ones(absD.shape)
             st = absD * s_p
         return sm, st
 
     def pointwise(self, log_theta, radial, tang, ctx):
-        """Log-likelihood per row of residuals ``(..., n)`` (magnitude, arc): ``(..., n)``."""
+        """Log-likelihood per row of residuals ``(..., n)`` (magnitude, arc): ``(..., n)``;
+        ``log_theta`` one vector ``(k,)`` or one per residual vector ``(..., k)``."""
         sm, st = self.scales(log_theta, ctx)
         zm, zt = radial / sm, tang / st
         if self.student:
-            nu = 10.0 ** float(log_theta[self.names.index("nu")])
+            nu = self._values(log_theta)["nu"]
             lm, lt = student_logpdf(zm, nu), student_logpdf(zt, nu)
         else:
             lm, lt = _gaussian_logpdf(zm), _gaussian_logpdf(zt)
@@ -211,7 +219,7 @@ class NoiseLaw:
         ``sqrt(w)``, ``w = (nu + 1) / (nu + z^2)`` for Student-t (its EM weights)."""
         sm, st = self.scales(log_theta, ctx)
         if self.student:
-            nu = 10.0 ** float(log_theta[self.names.index("nu")])
+            nu = self._values(log_theta)["nu"]
             sm = sm / np.sqrt((nu + 1.0) / (nu + (radial / sm) ** 2))
             st = st / np.sqrt((nu + 1.0) / (nu + (tang / st) ** 2))
         return sm, st
@@ -233,6 +241,21 @@ class NoiseLaw:
             if best is None or out.fun < best.fun:
                 best = out
         return np.asarray(best.x, float), -float(best.fun)
+
+    def criteria(self, log_likelihood: float, n_params: int, ctx) -> dict:
+        """AIC, AICc and BIC of a maximised (or point-estimate) ``log_likelihood`` under this
+        law, counting the law's ``n_params`` and the noise parameters (``k``) over the
+        :meth:`n_terms` numbers (``N``): ``AICc = -2 lnL + 2k + 2k(k + 1) / (N - k - 1)``
+        (infinite for ``N <= k + 1``), ``BIC = -2 lnL + k ln N``."""
+        k, n = n_params + len(self.names), self.n_terms(ctx)
+        aic = -2.0 * log_likelihood + 2.0 * k
+        return {
+            "log_likelihood": float(log_likelihood),
+            "n_noise_params": len(self.names),
+            "aic": float(aic),
+            "aicc": float(aic + (2.0 * k * (k + 1) / (n - k - 1) if n - k - 1 > 0 else np.inf)),
+            "bic": float(-2.0 * log_likelihood + k * np.log(n)),
+        }
 
     def natural(self, log_theta) -> dict:
         """Name -> value in its unit (:data:`PARAMETER_UNITS`)."""

@@ -125,11 +125,12 @@ def psis_loo(draws, log_likelihood, names) -> tuple[dict, list[str], float]:
     return loo_record(loo, waic), sorted(set(caught)), reff
 
 
-def noise_intervals(log10_noise) -> dict:
+def noise_intervals(log10_noise, law=None) -> dict:
     """``{"sigma_magnitude_interval": {...}, "sigma_phase_deg_interval": {...}}``: the
-    :data:`PERCENTS` of the noise scales of draws ``(..., 2)`` (log10)."""
+    :data:`PERCENTS` of the noise scales of draws ``(..., 2)`` (log10); with a fitted noise
+    ``law``, ``{"<name>_interval": ...}`` of each of its parameters, draws ``(..., k)``."""
     out = {}
-    for j, name in enumerate(NOISE_NAMES):
+    for j, name in enumerate(NOISE_NAMES if law is None else law.names):
         q = np.percentile(10 ** log10_noise[..., j].ravel(), list(PERCENTS))
         out[f"{name}_interval"] = dict(zip(QUANTILES, map(float, q)))
     return out
@@ -155,6 +156,7 @@ def posterior_result(
     sampled_noise: bool = False,
     loo_description: str = "",
     extra_metrics: dict | None = None,
+    noise_law=None,
 ) -> PosteriorResult:
     """The :class:`~fitdf.inference.results.PosteriorResult` of a sampler's draws.
 
@@ -169,14 +171,15 @@ def posterior_result(
     intervals, stderr, correlations
         The posterior's summaries, as the sampler computes them from its draws.
     noise_draws : numpy.ndarray
-        ``log10`` noise scales ``(draw, chain, 2)`` of the draws that have them: their
-        intervals, bound warnings and ``noise_samples``.
+        ``log10`` noise scales ``(draw, chain, 2)`` of the draws that have them (with
+        ``noise_law``, its ``k`` parameters): their intervals, bound warnings and
+        ``noise_samples``.
     loo_draws, loo_noise : numpy.ndarray
         The draws ``(draw, chain, P)`` for PSIS-LOO and WAIC and their ``log10`` noise
-        scales ``(draw, chain, 2)``.
+        scales ``(draw, chain, 2)`` (or ``k``).
     diagnostics, info : dict
         The sampler's; ``diagnostics`` gains the :func:`loo_record` and the
-        :func:`noise_intervals`.
+        :func:`noise_intervals` (where it has none of its own).
     sampler_warnings, point_warnings : sequence of str
         The sampler's warnings on its run and on its point estimate (module docstring).
     caught : sequence of str
@@ -188,18 +191,32 @@ def posterior_result(
         (:attr:`~fitdf.inference.results.PointwiseLikelihood.description`).
     extra_metrics : dict, optional
         Added to the metrics (nested sampling: the evidence).
+    noise_law : NoiseLaw, optional
+        The fitted noise law the sampler moved the parameters of
+        (:mod:`fitdf.inference.noise_models`): the pointwise log-likelihood is its
+        (:meth:`~fitdf.inference.noise_models.NoiseLaw.pointwise`), the noise draws its
+        parameters. None: the two Gaussian scales of
+        :meth:`~fitdf.inference.problem.FitProblem.pointwise_loglike`.
     """
     P = problem.ndim
-    log_likelihood = problem.pointwise_loglike(
-        loo_draws, 10.0 ** loo_noise[..., 0], 10.0 ** loo_noise[..., 1]
-    )
+    if noise_law is None:
+        log_likelihood = problem.pointwise_loglike(
+            loo_draws, 10.0 ** loo_noise[..., 0], 10.0 ** loo_noise[..., 1]
+        )
+        noise_names = list(NOISE_NAMES)
+    else:
+        radial, tang = problem.error_components(problem.predict(loo_draws))
+        ctx = noise_law.context(problem.data)
+        log_likelihood = noise_law.pointwise(loo_noise, radial, tang, ctx)
+        noise_names = list(noise_law.names)
     coordinates, names = loo_draws, list(problem.names)
     if sampled_noise:
         coordinates = np.concatenate([loo_draws, loo_noise], axis=-1)
-        names += list(NOISE_NAMES)
+        names += noise_names
     record, loo_caught, reff = psis_loo(coordinates, log_likelihood, names)
     caught = sorted(set(caught) | set(loo_caught))
-    diag = {**record, **diagnostics, **noise_intervals(noise_draws)}
+    # (a sampler's own noise intervals, from weighted draws, stand before the draws')
+    diag = {**record, **noise_intervals(noise_draws, noise_law), **diagnostics}
 
     warns = list(sampler_warnings)
     if diag["n_pareto_k_bad"]:
@@ -210,7 +227,7 @@ def posterior_result(
     warns += [f"ArviZ: {c}" for c in caught if "pareto" not in c.lower()]
     warns += list(point_warnings)
     warns += posterior_bound_warnings(problem, samples) + problem.limit_warnings(point)
-    warns += noise_bound_warnings(noise_draws)
+    warns += noise_bound_warnings(noise_draws, law=noise_law)
     warns += identifiability_warnings(problem, intervals)
 
     predicted = problem.predict(point)

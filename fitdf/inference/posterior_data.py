@@ -15,7 +15,8 @@ Notes
     :attr:`~fitdf.inference.results.PosteriorResult.pointwise`), in physical units: each
     free parameter under the name the fit reports (its ``unit``, ``description`` and prior
     in the variable's attributes) and the two noise scales ``sigma_magnitude`` and
-    ``sigma_phase_deg``. emcee's independent chains are ArviZ's chains; nested sampling
+    ``sigma_phase_deg`` (nested sampling under a fitted noise law: that law's parameters,
+    :mod:`fitdf.inference.noise_models`). emcee's independent chains are ArviZ's chains; nested sampling
     gives one chain of equal-weight draws (nautilus's weighted draws resampled
     systematically with the fit's seed, :func:`fitdf.inference.nested.systematic_resample`).
 ``log_likelihood``
@@ -54,8 +55,12 @@ import numpy as np
 from fitdf import __version__
 from fitdf._arviz import arviz, walkers_as_chains
 from fitdf.errors import OptionError
-from fitdf.inference.noise import NOISE_NAMES
-from fitdf.inference.priors import noise_prior_description, prior_description
+from fitdf.inference.noise_models import get_noise_law
+from fitdf.inference.priors import (
+    noise_law_prior_description,
+    noise_prior_description,
+    prior_description,
+)
 
 __all__ = ["inference_data", "write_posteriors", "posterior_filename", "LOO_ATTRS"]
 
@@ -102,8 +107,10 @@ def inference_data(result):
     problem = result.problem
     natural = problem.to_natural(_chains_first(pointwise.draws))
     noise = _chains_first(pointwise.noise)
+    law = _sampled_law(result)
+    noise_priors = noise_prior_description() if law is None else noise_law_prior_description(law)
     posterior = {s.name: natural[..., i] for i, s in enumerate(problem.specs)}
-    posterior.update({name: noise[..., j] for j, name in enumerate(NOISE_NAMES)})
+    posterior.update({name: noise[..., j] for j, name in enumerate(noise_priors)})
     rows = result.residuals
     n = len(rows)
     observed = {c: rows[c].to_numpy(float) for c in ("df_measured", "phase_lead_measured_deg")}
@@ -124,9 +131,7 @@ def inference_data(result):
         **{k: float(result.metrics[k]) for k in LOO_ATTRS if k in result.metrics},
         "loo_scale": "looic = -2 elpd_loo (deviance): arviz.loo(idata, scale='deviance')",
         "loo_reff": float(pointwise.reff),
-        "prior": json.dumps(
-            {**prior_description(problem.specs, problem.priors), **noise_prior_description()}
-        ),
+        "prior": json.dumps({**prior_description(problem.specs, problem.priors), **noise_priors}),
         "fixed": json.dumps({k: float(v) for k, v in problem.fixed.items()}),
         "draws": pointwise.description,
     }
@@ -148,9 +153,16 @@ def inference_data(result):
     for s in problem.specs:
         idata.posterior[s.name].attrs.update(_variable_attrs(priors[s.name], s.description))
     how = info.get("noise", "")
-    for name, prior in noise_prior_description().items():
+    for name, prior in noise_priors.items():
         idata.posterior[name].attrs.update(_variable_attrs(prior, f"noise scale; {how}"))
     return idata
+
+
+def _sampled_law(result):
+    """The noise law whose parameters the sampler drew (nested sampling under a fitted law,
+    ``info["noise_law"]["sampled"]``), or None: the two noise scales."""
+    record = result.info.get("noise_law") or {}
+    return get_noise_law(record["name"]) if record.get("sampled") else None
 
 
 def posterior_filename(result) -> str:

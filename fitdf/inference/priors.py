@@ -16,8 +16,16 @@ from __future__ import annotations
 import numpy as np
 
 from fitdf.inference.noise import NOISE_BOUNDS, NOISE_NAMES
+from fitdf.inference.noise_models import PARAMETER_UNITS
 
-__all__ = ["prior_description", "noise_prior_description", "noise_priors_text", "NOISE_UNITS"]
+__all__ = [
+    "prior_description",
+    "noise_prior_description",
+    "noise_priors_text",
+    "noise_law_prior_description",
+    "noise_law_priors_text",
+    "NOISE_UNITS",
+]
 
 #: The noise scales' units (the magnitude's is that of the DF, V/V).
 NOISE_UNITS = {"sigma_magnitude": "-", "sigma_phase_deg": "deg"}
@@ -69,3 +77,27 @@ def noise_priors_text() -> str:
     ``"log-uniform: sigma_magnitude 0.001..0.3, sigma_phase 0.1..50 deg"``."""
     (m_lo, m_hi), (p_lo, p_hi) = 10.0**NOISE_BOUNDS
     return f"log-uniform: sigma_magnitude {m_lo:g}..{m_hi:g}, sigma_phase {p_lo:g}..{p_hi:g} deg"
+
+
+def noise_law_prior_description(law) -> dict:
+    """The priors of a fitted noise law's parameters (sampled with the law's,
+    :mod:`fitdf.inference.noise_models`): log-uniform on :attr:`NoiseLaw.bounds`."""
+    return {
+        name: {
+            "distribution": "log-uniform",
+            "bounds": [float(10.0**lo), float(10.0**hi)],
+            "unit": PARAMETER_UNITS[name],
+            "integrated_out": False,
+        }
+        for name, (lo, hi) in zip(law.names, law.bounds)
+    }
+
+
+def noise_law_priors_text(law) -> str:
+    """A fitted noise law's priors in one line: ``"noise law reading, log-uniform: s_m
+    0.001..0.3, s_p_deg 0.1..50 deg, ..."``."""
+    parts = []
+    for name, (lo, hi) in zip(law.names, 10.0**law.bounds):
+        unit = PARAMETER_UNITS[name]
+        parts.append(f"{name} {lo:g}..{hi:g}" + ("" if unit == "-" else f" {unit}"))
+    return f"noise law {law.name}, log-uniform: " + ", ".join(parts)

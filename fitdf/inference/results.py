@@ -213,7 +213,20 @@ class FitResult:
         if any(r[2] == DIMENSIONLESS for r in rows):
             lines.append(f"  (unit {DIMENSIONLESS}: dimensionless)")
         noise = self.info.get("noise_law")
-        if noise:
+        if noise and noise.get("sampled"):  # nested sampling: the point estimate's, 68 %
+            iv = noise["intervals"]
+            fitted = "  ".join(
+                f"{k} {v:.3g} ({iv[k]['p16']:.3g} .. {iv[k]['p84']:.3g})"
+                for k, v in noise["values"].items()
+            )
+            lines += textwrap.wrap(
+                f"noise law {noise['name']} (sampled; at the point estimate, log-likelihood "
+                f"{m['log_likelihood']:.2f}; 68% intervals): {fitted}",
+                width,
+                initial_indent="  ",
+                subsequent_indent="    ",
+            )
+        elif noise:
             fitted = "  ".join(f"{k} {v:.3g}" for k, v in noise["values"].items())
             lines += textwrap.wrap(
                 f"noise law {noise['name']} (fitted; log-likelihood "
@@ -283,10 +296,12 @@ class PointwiseLikelihood:
     noise : numpy.ndarray
         The two noise scales of each draw, ``(draw, chain, 2)``: ``sigma_magnitude`` and
         ``sigma_phase_deg`` (sampled with it, or drawn given it where they were integrated
-        out).
+        out); under a fitted noise law sampled by nested sampling, its ``k`` parameters
+        (:attr:`~fitdf.inference.noise_models.NoiseLaw.names`, natural units).
     log_likelihood : numpy.ndarray
         The Gaussian log-likelihood of each data row, ``(draw, chain, n_rows)``
-        (:meth:`fitdf.inference.problem.FitProblem.pointwise_loglike`).
+        (:meth:`fitdf.inference.problem.FitProblem.pointwise_loglike`), or the noise law's
+        (:meth:`~fitdf.inference.noise_models.NoiseLaw.pointwise`).
     reff : float
         The relative efficiency of the draws PSIS used (ArviZ's: 1 for one chain, else the
         mean ESS of the sampler's coordinates over the number of draws,
