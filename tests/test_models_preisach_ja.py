@@ -257,6 +257,12 @@ def test_flux_on_rows_is_the_elementwise_flux():
     P = preisach_branch(x, a, **{k: kw[k] for k in ("i_c", "sigma_c", "i_i")})
     rev = reversible_part(x, lambda_s=lam, l_rev=kw["l_rev"], f_rev=kw["f_rev"])
     np.testing.assert_allclose(ours, (1.0 - kw["f_rev"]) * lam * P + rev, rtol=1e-15, atol=0)
+    # one value for every row, as a scalar: the same as repeated per row
+    one = {k: float(v[1, 0]) for k, v in kw.items()}
+    np.testing.assert_array_equal(
+        Preisach.ascending_branch(x, a, **one),
+        Preisach.ascending_branch(x, a, **{k: np.full((3, 1), v) for k, v in one.items()}),
+    )
     # a square table whose parameters run along its columns: broadcast, not rows
     sq = {k: np.resize(v[:, 0], 3) * np.array([1.0, 1.5, 0.7]) for k, v in kw.items()}
     sq["f_rev"] = np.minimum(sq["f_rev"], 0.9)

@@ -245,9 +245,20 @@ def _flux_rows(x, amplitude, lambda_s, i_c, sigma_c, i_i, l_rev, f_rev, out):
             out[p, k] = irr * (-tip + 2.0 * e) + rev * math.atan(xi / i_r)
 
 
+def _kernel_row(v, R):
+    """``v`` (shape ``(R,)``) as the loop's one array type, float64, C-contiguous and
+    writeable, copied only when it is not already; a single value is repeated."""
+    if v.shape[0] != R:
+        return np.full(R, v[0])
+    if v.flags.c_contiguous and v.flags.writeable:
+        return v
+    return np.array(v, order="C")
+
+
 def preisach_flux_rows(x, amplitude, *, lambda_s, i_c, sigma_c, i_i, l_rev, f_rev):
     """The Preisach rising branch (flux linkage) on a table ``x`` of shape ``(R, K)``
-    whose amplitude and parameters are per row (shape ``(R, 1)``) or scalars, or None when the arguments have another shape (then the caller broadcasts).
+    whose amplitude and parameters are per row (shape ``(R, 1)``) or scalars; None when
+    the arguments have another shape (then the caller broadcasts).
 
     The voltage chain's tables have this shape; one compiled loop (:func:`_flux_rows`)
     gives what :func:`preisach_branch` and :func:`reversible_part` give elementwise
@@ -262,9 +273,12 @@ def preisach_flux_rows(x, amplitude, *, lambda_s, i_c, sigma_c, i_i, l_rev, f_re
         v = np.asarray(v, dtype=float)
         if v.ndim == 2 and v.shape[1] == 1 and v.shape[0] in (1, R):
             v = v[:, 0]
-        elif v.ndim > 1 or (v.ndim == 1 and v.shape[0] != 1):  # (a 1-D array runs along K)
+        elif v.ndim == 0:
+            v = v.reshape(1)
+        elif v.ndim > 1 or v.shape[0] != 1:  # (a 1-D array runs along K)
             return None
-        rows.append(np.array(np.broadcast_to(v, (R,)), order="C"))
+        # (per row, not broadcast: this runs at every step of every root search)
+        rows.append(_kernel_row(v, R))
     if not (x.flags.c_contiguous and x.flags.writeable):  # (numba's one array type)
         x = np.array(x, order="C")
     out = np.empty(x.shape)
