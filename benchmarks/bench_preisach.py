@@ -64,9 +64,14 @@ BRANCHES = {
 }
 
 
+_ROWS = preisach_module.preisach_flux_rows
+
+
 def use(name):
-    """Make the Preisach law read the branch ``name``."""
+    """Make the Preisach law read the branch ``name`` (the compiled one on the chain's
+    tables through its row loop, :func:`~fitdf.models._preisach_everett.preisach_flux_rows`)."""
     preisach_module.preisach_branch = BRANCHES[name]
+    preisach_module.preisach_flux_rows = _ROWS if name == "compiled" else lambda *a, **k: None
 
 
 def main():

@@ -251,6 +251,7 @@ def test_the_benchmarks_state_the_samplers_rules_and_settings():
         f"**The choice: nautilus, {nested.DEFAULT_LIVE} live points, "
         f"{words[nested.DEFAULT_NETWORKS]} network per bound**" in bench
     )
+    assert f"**The batch: {nested.DEFAULT_BATCH} points a call**" in bench
     cap = re.search(r"stopped at the ([\d,]+) cap", bench) or re.search(
         r"stopped at ([\d,]+)\)", bench
     )

@@ -21,7 +21,7 @@ from fitdf.models._ja_integrate import (
     _half_cycle,
     _steady,
 )
-from fitdf.models._preisach_everett import _bvn, _preisach_branch_reference
+from fitdf.models._preisach_everett import _bvn, _preisach_branch_reference, preisach_flux_rows
 from fitdf.models.jiles_atherton import (
     JA_1986,
     JilesAtherton,
@@ -41,6 +41,7 @@ from fitdf.models.preisach import (
     preisach_describing_function,
     preisach_output,
     rayleigh_constant,
+    reversible_part,
 )
 from fitdf.params import split_theta
 
@@ -230,6 +231,49 @@ def test_compiled_branch_broadcasts_and_keeps_the_limits():
             ref = _preisach_branch_reference(edge, amp, **row)
         np.testing.assert_allclose(preisach_branch(edge, amp, **row), ref, rtol=0, atol=1e-15)
     assert preisach_branch(1e-3, 2e-3, **row).shape == ()
+
+
+def _flux_by_owens_t(x, a, *, lambda_s, i_c, sigma_c, i_i, l_rev, f_rev):
+    """The Preisach flux linkage from :func:`everett` (Owen's T) and NumPy's arctangent."""
+    P = _preisach_branch_reference(x, a, i_c=i_c, sigma_c=sigma_c, i_i=i_i)
+    i_r = 2.0 * f_rev * lambda_s / (np.pi * l_rev)
+    return lambda_s * ((1.0 - f_rev) * P + f_rev * (2.0 / np.pi) * np.arctan(x / i_r))
+
+
+def test_flux_on_rows_is_the_elementwise_flux():
+    """The chain's tables (rows ``(R, K)``, per-row amplitude and parameters) run in one
+    compiled loop; it gives the law's flux linkage, and other shapes still broadcast (a
+    square table with a parameter per column is not taken for one per row)."""
+    th = theta_matrix(Preisach, PREISACH_SETS.values())
+    kw = {p.name: th[:, i, None] for i, p in enumerate(Preisach.params)}
+    a = np.array([[3e-4], [2e-3], [5e-2]])
+    x = a * np.cos(np.linspace(np.pi, 0.0, 33))
+    assert preisach_flux_rows(x, a, **kw) is not None  # (the row loop is the path taken)
+    ours = Preisach.ascending_branch(x, a, **kw)
+    lam = kw["lambda_s"]
+    ref = _flux_by_owens_t(x, a, **kw)
+    np.testing.assert_allclose(ours / lam, ref / lam, rtol=0, atol=1e-13)
+    # the relay part is the elementwise loop's bit for bit, the arctangent to an ulp
+    P = preisach_branch(x, a, **{k: kw[k] for k in ("i_c", "sigma_c", "i_i")})
+    rev = reversible_part(x, lambda_s=lam, l_rev=kw["l_rev"], f_rev=kw["f_rev"])
+    np.testing.assert_allclose(ours, (1.0 - kw["f_rev"]) * lam * P + rev, rtol=1e-15, atol=0)
+    # one value for every row, as a scalar: the same as repeated per row
+    one = {k: float(v[1, 0]) for k, v in kw.items()}
+    np.testing.assert_array_equal(
+        Preisach.ascending_branch(x, a, **one),
+        Preisach.ascending_branch(x, a, **{k: np.full((3, 1), v) for k, v in one.items()}),
+    )
+    # a square table whose parameters run along its columns: broadcast, not rows
+    sq = {k: np.resize(v[:, 0], 3) * np.array([1.0, 1.5, 0.7]) for k, v in kw.items()}
+    sq["f_rev"] = np.minimum(sq["f_rev"], 0.9)
+    xs = a * np.array([-0.9, 0.1, 0.8])
+    assert preisach_flux_rows(xs, a, **sq) is None
+    np.testing.assert_allclose(
+        Preisach.ascending_branch(xs, a, **sq),
+        _flux_by_owens_t(xs, a, **sq),
+        rtol=0,
+        atol=1e-13 * sq["lambda_s"].max(),
+    )
 
 
 # --- Preisach: describing function ---------------------------------------------------------------

@@ -3,8 +3,9 @@
 The Gaussian relay density of :mod:`fitdf.models.preisach` in closed form: the Everett
 function as differences of bivariate normal distribution functions (Owen's ``T``), its
 ``alpha`` derivative, the steady rising branch (a compiled loop, two of Genz's bivariate
-normals per point, :mod:`fitdf.models._bvn`; the NumPy/Owen's-``T`` form is its reference),
-the reversible arctangent and the Rayleigh constant of the low-amplitude limit; and the
+normals per point, :mod:`fitdf.models._bvn`; the NumPy/Owen's-``T`` form is its reference;
+on the chains' tables of rows the whole flux linkage, reversible part included, in one
+loop), the reversible arctangent and the Rayleigh constant of the low-amplitude limit; and the
 fixed graded Gauss-Legendre rule (numba) for the relay part of ``N(A)``. The derivations
 are in the docstring of :mod:`fitdf.models.preisach`.
 """
@@ -23,6 +24,7 @@ __all__ = [
     "everett",
     "everett_slope",
     "preisach_branch",
+    "preisach_flux_rows",
     "reversible_part",
     "rayleigh_constant",
     "preisach_describing_function",
@@ -149,12 +151,43 @@ def _everett_point(alpha, A, m, S, r, sq, tab, n, r2, sq2, tab2, n2, x0, px0, kA
 
 
 @numba.njit(cache=True)
+def _amplitude_terms(A, m, sc, t, tab, tab2, n, n2, key_r, key_sq, r2, sq2):
+    """The terms of ``E(x, -A)`` that do not depend on ``x`` (:func:`_everett_point`'s).
+
+    The node tables ``tab``, ``tab2`` of the two correlations are set up again only when
+    ``r`` or ``sqrt(1 - r^2)`` differ from ``key_r``, ``key_sq`` (with ``n, n2, r2, sq2``
+    the previous setup's). Returns ``(S, r, sq, r2, sq2, n, n2, x0, px0, kA, pkA, low, Z,
+    tip)``, ``tip = E(A, -A)``.
+    """
+    s = sc * m
+    S = math.hypot(s, t)
+    r = s / S
+    sq = t / S  # sqrt(1 - r^2), accurate as r -> 1
+    if not (r == key_r and sq == key_sq):
+        r2 = (r - sq) * (r + sq)  # 2 r^2 - 1, the correlation of the first term
+        sq2 = 2.0 * r * sq
+        n = bvn_setup(r, sq, tab)
+        n2 = bvn_setup(r2, sq2, tab2)
+    x0 = -m / s
+    px0 = _phi(x0)
+    kA = (A - m) / S
+    pkA = _phi(kA)
+    Z = _phi(m / s)
+    u_low = (-A - m) / S
+    p_low = _phi(u_low)
+    low = bvn_lower_phi(u_low, kA, r2, sq2, p_low, pkA, tab2, n2) - bvn_lower_phi(
+        u_low, x0, r, sq, p_low, px0, tab, n
+    )
+    tip = _everett_point(A, A, m, S, r, sq, tab, n, r2, sq2, tab2, n2, x0, px0, kA, pkA, low, Z)
+    return S, r, sq, r2, sq2, n, n2, x0, px0, kA, pkA, low, Z, tip
+
+
+@numba.njit(cache=True)
 def _branch_loop(x, amplitude, i_c, sigma_c, i_i, out):
     """``out = -E(A, -A) + 2 E(x, -A)`` elementwise over flat arrays (one fused loop).
 
-    The terms that do not depend on ``x`` (the node tables of the two correlations,
-    ``E(A, -A)``, the bracket at ``-A`` and two ``Phi``) are kept while ``A`` and the density
-    are those of the previous element.
+    The terms that do not depend on ``x`` (:func:`_amplitude_terms`) are kept while ``A``
+    and the density are those of the previous element.
     """
     tab = np.empty(BVN_TABLE_SHAPE)
     tab2 = np.empty(BVN_TABLE_SHAPE)
@@ -166,29 +199,10 @@ def _branch_loop(x, amplitude, i_c, sigma_c, i_i, out):
         if not (A == key_a and i_c[i] == key_m and sigma_c[i] == key_sc and i_i[i] == key_t):
             key_a, key_m, key_sc, key_t = A, i_c[i], sigma_c[i], i_i[i]
             m = key_m
-            s = key_sc * m
-            S = math.hypot(s, key_t)
-            r = s / S
-            sq = key_t / S  # sqrt(1 - r^2), accurate as r -> 1
-            if not (r == key_r and sq == key_sq):
-                r2 = (r - sq) * (r + sq)  # 2 r^2 - 1, the correlation of the first term
-                sq2 = 2.0 * r * sq
-                n = bvn_setup(r, sq, tab)
-                n2 = bvn_setup(r2, sq2, tab2)
-                key_r, key_sq = r, sq
-            x0 = -m / s
-            px0 = _phi(x0)
-            kA = (A - m) / S
-            pkA = _phi(kA)
-            Z = _phi(m / s)
-            u_low = (-A - m) / S
-            p_low = _phi(u_low)
-            low = bvn_lower_phi(u_low, kA, r2, sq2, p_low, pkA, tab2, n2) - bvn_lower_phi(
-                u_low, x0, r, sq, p_low, px0, tab, n
+            S, r, sq, r2, sq2, n, n2, x0, px0, kA, pkA, low, Z, tip = _amplitude_terms(
+                A, m, key_sc, key_t, tab, tab2, n, n2, key_r, key_sq, r2, sq2
             )
-            tip = _everett_point(
-                A, A, m, S, r, sq, tab, n, r2, sq2, tab2, n2, x0, px0, kA, pkA, low, Z
-            )
+            key_r, key_sq = r, sq
         xi = x[i]
         if xi == A:
             e = tip
@@ -197,6 +211,79 @@ def _branch_loop(x, amplitude, i_c, sigma_c, i_i, out):
                 xi, A, m, S, r, sq, tab, n, r2, sq2, tab2, n2, x0, px0, kA, pkA, low, Z
             )
         out[i] = -tip + 2.0 * e
+
+
+@numba.njit(cache=True)
+def _flux_rows(x, amplitude, lambda_s, i_c, sigma_c, i_i, l_rev, f_rev, out):
+    """:meth:`Preisach.ascending_branch` on the rows of the table ``x`` (``(R, K)``), each
+    row with its own amplitude and parameters (``(R,)``): the relay part as
+    :func:`_branch_loop` computes it, plus the reversible arctangent, in one loop (no
+    broadcast copies of the row values, no NumPy passes over the table)."""
+    tab = np.empty(BVN_TABLE_SHAPE)
+    tab2 = np.empty(BVN_TABLE_SHAPE)
+    n = n2 = 0
+    key_r = key_sq = r2 = sq2 = np.nan
+    for p in range(x.shape[0]):
+        A = abs(amplitude[p])
+        m = i_c[p]
+        S, r, sq, r2, sq2, n, n2, x0, px0, kA, pkA, low, Z, tip = _amplitude_terms(
+            A, m, sigma_c[p], i_i[p], tab, tab2, n, n2, key_r, key_sq, r2, sq2
+        )
+        key_r, key_sq = r, sq
+        lam, fr = lambda_s[p], f_rev[p]
+        irr = (1.0 - fr) * lam
+        i_r = 2.0 * fr * lam / (math.pi * l_rev[p])
+        rev = (2.0 / math.pi) * fr * lam
+        for k in range(x.shape[1]):
+            xi = x[p, k]
+            if xi == A:
+                e = tip
+            else:
+                e = _everett_point(
+                    xi, A, m, S, r, sq, tab, n, r2, sq2, tab2, n2, x0, px0, kA, pkA, low, Z
+                )
+            out[p, k] = irr * (-tip + 2.0 * e) + rev * math.atan(xi / i_r)
+
+
+def _kernel_row(v, R):
+    """``v`` (shape ``(R,)``) as the loop's one array type, float64, C-contiguous and
+    writeable, copied only when it is not already; a single value is repeated."""
+    if v.shape[0] != R:
+        return np.full(R, v[0])
+    if v.flags.c_contiguous and v.flags.writeable:
+        return v
+    return np.array(v, order="C")
+
+
+def preisach_flux_rows(x, amplitude, *, lambda_s, i_c, sigma_c, i_i, l_rev, f_rev):
+    """The Preisach rising branch (flux linkage) on a table ``x`` of shape ``(R, K)``
+    whose amplitude and parameters are per row (shape ``(R, 1)``) or scalars; None when
+    the arguments have another shape (then the caller broadcasts).
+
+    The voltage chain's tables have this shape; one compiled loop (:func:`_flux_rows`)
+    gives what :func:`preisach_branch` and :func:`reversible_part` give elementwise
+    (the same relay part bit for bit; the arctangent to an ulp).
+    """
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 2:
+        return None
+    R = x.shape[0]
+    rows = []
+    for v in (amplitude, lambda_s, i_c, sigma_c, i_i, l_rev, f_rev):
+        v = np.asarray(v, dtype=float)
+        if v.ndim == 2 and v.shape[1] == 1 and v.shape[0] in (1, R):
+            v = v[:, 0]
+        elif v.ndim == 0:
+            v = v.reshape(1)
+        elif v.ndim > 1 or v.shape[0] != 1:  # (a 1-D array runs along K)
+            return None
+        # (per row, not broadcast: this runs at every step of every root search)
+        rows.append(_kernel_row(v, R))
+    if not (x.flags.c_contiguous and x.flags.writeable):  # (numba's one array type)
+        x = np.array(x, order="C")
+    out = np.empty(x.shape)
+    _flux_rows(x, *rows, out)
+    return out
 
 
 def preisach_branch(x, amplitude, *, i_c, sigma_c, i_i):

@@ -61,6 +61,7 @@ from fitdf.models._preisach_everett import (
     everett_slope,
     preisach_branch,
     preisach_describing_function,
+    preisach_flux_rows,
     rayleigh_constant,
     reversible_part,
 )
@@ -171,7 +172,23 @@ class Preisach(HysteresisModel):
     def ascending_branch(
         cls, x, amplitude, frequency=0.0, *, lambda_s, i_c, sigma_c, i_i, l_rev, f_rev
     ):
-        """``lambda_s [(1 - f_rev)(-E(A, -A) + 2 E(x, -A)) + f_rev (2/pi) atan(x/i_r)]`` for ``-A <= x <= A``."""
+        """``lambda_s [(1 - f_rev)(-E(A, -A) + 2 E(x, -A)) + f_rev (2/pi) atan(x/i_r)]`` for ``-A <= x <= A``.
+
+        A table of rows ``(R, K)`` with per-row amplitude and parameters (the chains'
+        tables) runs in one compiled loop (:func:`preisach_flux_rows`); other shapes
+        broadcast elementwise."""
+        rows = preisach_flux_rows(
+            x,
+            amplitude,
+            lambda_s=lambda_s,
+            i_c=i_c,
+            sigma_c=sigma_c,
+            i_i=i_i,
+            l_rev=l_rev,
+            f_rev=f_rev,
+        )
+        if rows is not None:
+            return rows
         P = preisach_branch(x, amplitude, i_c=i_c, sigma_c=sigma_c, i_i=i_i)
         lam = np.asarray(lambda_s, dtype=float)
         return (1.0 - np.asarray(f_rev, float)) * lam * P + reversible_part(
