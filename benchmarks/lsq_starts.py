@@ -10,10 +10,12 @@ start's polish depends only on the starts before it, the fit ``fit_lsq`` returns
 starts is reproduced exactly from the first ``k`` of these polishes (their restarts near
 the floor of those ``k``, :func:`fitdf.inference.lsq._polish_further`, included). The
 table gives, for k = 1..n, whether the best of the first ``k`` is the best of all: within
-1e-3 relative in chi-square ("r"), or within 0.1 in both chi-square and AICc (".");
-"x" where neither. Its last columns: the first ``k`` that holds every later ``k``, and where
-the early stop of :func:`fitdf.inference.lsq.agreed` (``AGREE_STARTS`` starts in one
-basin) stops and whether its optimum is the one of all the starts.
+0.1 in both chi-square and AICc ("."), within 1e-3 relative in chi-square only ("r"), "x"
+where neither; ``k_0.1`` is the first ``k`` from which every prefix is ".", ``k_exact``
+where the best start is (its fit the fit of all the starts, within 1e-6 relative), and
+``after_best`` the CPU seconds of the starts after it. The summary below it: how often the
+first start is the best, and what each early stop of :data:`RULES` (once ``A`` starts have
+ended within ``D`` of the lowest chi-square so far) would save and which fits it would change.
 
 ``--check`` compares each fit with ``reports/results.json`` (the committed report's chi-square,
 relative difference). Writes ``benchmarks/lsq_starts.json``. ~11 min on two shared Xeon
@@ -21,6 +23,7 @@ cores (``--workers 2``). ``--verify`` runs the report's least-squares jobs as th
 runs them (:func:`fitdf.inference.api.fit`) and compares their chi-square with the report's.
 
     python benchmarks/lsq_starts.py [--blocks B.1 ...] [--models ...] [--seed 0] [--workers 2]
+    python benchmarks/lsq_starts.py --table benchmarks/lsq_starts.json --check   # no fit
 """
 
 from __future__ import annotations
