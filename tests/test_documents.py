@@ -537,3 +537,64 @@ def test_the_changelogs_unreleased_section_is_the_net_change():
     flat = " ".join(unreleased.split())
     for history in (r"\(was\b", r"\bwas \d", r"\bnow\b", r"\bno longer\b", r"\bbefore that\b"):
         assert not re.search(history, flat), history
+
+
+def test_the_least_squares_page_states_the_starts_study():
+    """docs/method/inference.rst's account of how often the later least-squares starts
+    change the optimum is benchmarks/lsq_starts.json's, recomputed by the benchmark's own
+    functions."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "lsq_starts", REPO / "benchmarks" / "lsq_starts.py"
+    )
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    records = json.loads((REPO / "benchmarks" / "lsq_starts.json").read_text())["records"]
+    page = text("docs/method/inference.rst")
+    exact = [bench.exact(r) for r in records]
+    n = [len(r["starts"]) for r in records]
+    assert f"polishes every start of the report's {len(records)} least-squares fits" in page
+    first, last = sum(k == 1 for k in exact), sum(k == m for k, m in zip(exact, n))
+    assert f"The first start is the best in {first} fits and the last in {last};" in page
+    latest = {}
+    for r, k, m in zip(records, exact, n):
+        if k > latest.get(r["model"], (0,))[0]:
+            latest[r["model"]] = (k, m, r["block"])
+    assert all(k > 1 for k, _, _ in latest.values())  # "every law has a block ..."
+    last_of_six = sum(k == m == 6 for k, m, _ in latest.values())
+    assert f"start 6 of 6 for {last_of_six} laws" in page
+    k, m, block = latest["cubic_hc"]
+    assert f"start {k} of {m} for ``cubic_hc`` on Table {block}" in page
+    total = sum(bench.cpu(r, len(r["starts"])) for r in records)
+    after = sum(bench.cpu(r, len(r["starts"])) - bench.cpu(r, k) for r, k in zip(records, exact))
+    assert f"best cost {after:.0f} of the {total:.0f} CPU seconds" in page
+    worst, least_saved = 0.0, np.inf
+    for n_agree, window in bench.RULES:
+        stops = [bench.agree_stop(r, n_agree, window) for r in records]
+        rises = [
+            r["prefixes"][s - 1]["aicc"] - r["prefixes"][-1]["aicc"]
+            for r, s, k in zip(records, stops, exact)
+            if s < k
+        ]
+        saved = sum(
+            bench.cpu(r, len(r["starts"])) - bench.cpu(r, s) for r, s in zip(records, stops)
+        )
+        if rises:
+            worst = max(worst, *rises)
+        else:  # a stop that changes no fit
+            least_saved = min(least_saved, saved)
+    assert (
+        f"changes a fit, by up to {worst:.0f} in AICc (``cubic_hc``), or saves {least_saved:.0f} s"
+        in page
+    )
+    b2 = next(r for r in records if (r["block"], r["model"]) == ("B.2", "jiles_atherton"))
+    objective = [p["objective"] for p in b2["prefixes"]]
+    assert bench.exact(b2) == 6 and len(set(np.round(objective[:5], 9))) == 1
+    assert f"the sixth {objective[4] - objective[5]:.2f} lower in the penalised" in page
+    starts = [s for r in records for s in r["starts"]]
+    merged = [s for s in starts if s["merged"]]
+    assert (
+        f"the {len(merged)} of {len(starts)} starts that merge into a basin found before take "
+        f"{sum(s['cpu_s'] for s in merged):.0f} s" in page
+    )

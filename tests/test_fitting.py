@@ -210,7 +210,8 @@ def test_a_fit_without_uncertainties_has_the_same_optimum_and_skips_the_covarian
     calls = []
     monkeypatch.setattr(lsq, "covariance", lambda *a: calls.append(a))
     bare = fit_lsq(problem, seed=0, n_starts=2, uncertainties=False)
-    # (the polish's merge test still asks for the first start's covariance, not the result)
+    # (the polish's merge test still asks for the first start's covariance, once the second
+    # start comes within MERGE_CHI2 of it: not the result's)
     assert len(calls) == 1
     np.testing.assert_array_equal(bare.internal, full.internal)
     assert bare.metrics["chi2"] == full.metrics["chi2"]
@@ -247,6 +248,60 @@ def test_a_start_that_reaches_a_known_basin_stops_there(monkeypatch):
     # this valley is flat, k 5.2 and 12.9 H lie 0.02 apart in chi-square with scipy 1.17)
     chi2 = float(np.sum(problem.weighted_residuals(merged.internal) ** 2))
     assert chi2 == pytest.approx(min(costs), rel=1e-9)
+
+
+def test_a_basins_covariance_is_computed_once_a_start_comes_within_merge_chi2(monkeypatch):
+    """The merge test reads an earlier optimum's covariance only for a start whose
+    chi-square lies within MERGE_CHI2 above that optimum's: just outside the window it is
+    never computed, just inside once (however many evaluations fall inside), and the polish
+    is the same either way."""
+    from fitdf.inference import lsq
+
+    problem = FitProblem(resolve_data("B.1"), "constant_width", "winding")
+    lo, hi = problem.internal_bounds().T
+    start = lo + 0.45 * (hi - lo)
+    _, x0, c0 = lsq._polish(problem, start, max_nfev=4000)
+    calls = []
+    real = lsq.covariance
+    monkeypatch.setattr(lsq, "covariance", lambda p, x: calls.append(x) or real(p, x))
+    far = lo + 0.9 * (hi - lo)  # an optimum elsewhere: the polish never merges into it
+    for offset, n_calls in ((-0.05, 0), (0.05, 1)):
+        calls.clear()
+        basin = lsq._Basin(problem, far, c0 - lsq.MERGE_CHI2 + offset)
+        out, x, cost = lsq._polish(problem, start, max_nfev=4000, known=[basin])
+        assert len(calls) == n_calls
+        assert not out.merged
+        np.testing.assert_array_equal(x, x0)
+        assert cost == c0
+
+
+def test_basins_covariances_on_demand_leave_the_fit_unchanged(monkeypatch):
+    """Each basin's covariance computed on demand gives the fit it gave computed as soon as
+    the basin was found (the same starts, optimum and uncertainties), for fewer
+    covariances."""
+    from fitdf.inference import lsq
+
+    problem = FitProblem(resolve_data("B.1"), "constant_width", "winding")
+    calls = []
+    real = lsq.covariance
+    monkeypatch.setattr(lsq, "covariance", lambda p, x: calls.append(x) or real(p, x))
+    lazy = lsq.fit_lsq(problem, seed=0, n_starts=4)
+    n_lazy = len(calls)
+
+    class Eager(lsq._Basin):
+        def __init__(self, *args):
+            super().__init__(*args)
+            _ = self.covariance  # at once, as each basin was found
+
+    monkeypatch.setattr(lsq, "_Basin", Eager)
+    calls.clear()
+    eager = lsq.fit_lsq(problem, seed=0, n_starts=4)
+    assert lazy.info["starts_chi2"] == eager.info["starts_chi2"]
+    assert lazy.info["starts_merged"] == eager.info["starts_merged"]
+    np.testing.assert_array_equal(lazy.internal, eager.internal)
+    assert lazy.info["covar_internal"] == eager.info["covar_internal"]
+    assert lazy.stderr == eager.stderr
+    assert n_lazy < len(calls)
 
 
 def _interior_and_edges(problem):

@@ -16,6 +16,7 @@ crawled along once instead of ``n_starts`` times.
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import lmfit
@@ -80,8 +81,8 @@ def _polish(problem: FitProblem, start, max_nfev: int, known=()):
 
     The Jacobian is :func:`_batched_jacobian` (the ``P`` shifted vectors in one batched
     call); ``max_nfev`` counts every model evaluation, the Jacobian's included
-    (``out.nfev``). ``known`` holds ``(x, chi2, covariance or None)`` of optima found by
-    earlier starts: the run stops as soon as it is within :data:`MERGE_CHI2` and
+    (``out.nfev``). ``known`` holds the :class:`_Basin` of optima found by earlier
+    starts: the run stops as soon as it is within :data:`MERGE_CHI2` and
     :data:`MERGE_SIGMAS` of one of them (``out.merged`` is then True)."""
     lo, hi = problem.internal_bounds().T
     width = np.where(hi > lo, hi - lo, 1.0)
@@ -111,14 +112,14 @@ def _polish(problem: FitProblem, start, max_nfev: int, known=()):
         evaluations[0] += n
         return jac
 
-    def near(x, k_x, k_cov):
-        if k_cov is not None:
-            d = x - k_x
+    def near(x, basin):
+        if basin.covariance is not None:
+            d = x - basin.x
             try:
-                return float(d @ np.linalg.solve(k_cov, d)) <= MERGE_SIGMAS**2
+                return float(d @ np.linalg.solve(basin.covariance, d)) <= MERGE_SIGMAS**2
             except np.linalg.LinAlgError:  # numerically singular: the box's width instead
                 pass
-        return np.max(np.abs(x - k_x) / width) <= 0.01
+        return np.max(np.abs(x - basin.x) / width) <= 0.01
 
     merged, spent = [], []
 
@@ -129,10 +130,9 @@ def _polish(problem: FitProblem, start, max_nfev: int, known=()):
         if not known:
             return False
         x, cost = vector(p), float(np.sum(resid**2))
-        if any(
-            k_cost <= cost <= k_cost + MERGE_CHI2 and near(x, k_x, k_cov)
-            for k_x, k_cost, k_cov in known
-        ):
+        # (the chi-square first: a basin's covariance is computed only once a start is
+        # within MERGE_CHI2 of its optimum)
+        if any(b.cost <= cost <= b.cost + MERGE_CHI2 and near(x, b) for b in known):
             merged.append(True)
         return bool(merged)
 
@@ -412,15 +412,28 @@ def _starts(problem, seed, n_starts, n_screen, starts, also_screen):
     return np.vstack([starts, screened]), n_screen
 
 
+class _Basin:
+    """An optimum a start reached: its internal point ``x``, its ``cost`` (chi-square) and,
+    computed on first use (most basins are never approached again within
+    :data:`MERGE_CHI2`), its :func:`covariance`."""
+
+    def __init__(self, problem: FitProblem, x, cost: float):
+        self.problem, self.x, self.cost = problem, x, cost
+
+    @functools.cached_property
+    def covariance(self):
+        return covariance(self.problem, self.x)
+
+
 def _polish_starts(problem, starts, max_nfev) -> list:
     """Each start polished (:func:`_polish`, merging into the basins found before), then the
     ones near the best cost polished further: ``(out, x, cost)`` per start."""
     polished, known = [], []
-    for i, s in enumerate(starts):
+    for s in starts:
         polished.append(_polish(problem, s, max_nfev, known))
         out, x, cost = polished[-1]
-        if not out.merged and i + 1 < len(starts):
-            known.append((x, cost, covariance(problem, x)))
+        if not out.merged:
+            known.append(_Basin(problem, x, cost))
     floor = min(cost for *_, cost in polished)
     # (a start stopped in a known basin is not restarted: that basin's own start is)
     return [
