@@ -348,16 +348,20 @@ def test_the_cost_table_is_the_committed_reports():
     assert set(costs.COMMITTED_SETTINGS) == set(costs.COST_SETTINGS)
 
 
-def test_a_posterior_with_its_prior_sensitivity_is_planned_twice_as_long():
+def test_a_posterior_with_its_prior_sensitivity_is_planned_with_its_box():
     """``--full``: the best two laws of each block also sample the box doubled in the same job
     (the halved box comes from the posterior's draws), so each of those jobs is planned as
-    two posteriors."""
+    its posterior and its box, each at the committed report's seconds; the third alone."""
     full = ReportSettings.for_run(full=True)
     phases, _ = _plan(full)
     nested = sorted((s for _, s in phases[1].planned if _ == "nested"), reverse=True)
     assert len(nested) == 21
-    b4 = costs.unknown_laws("nested", "B.4", 3)
-    planned_b4 = [2 * b4[0][1], 2 * b4[1][1], b4[2][1]]
+    aicc = costs.COMMITTED_AICC["B.4"]
+    laws = sorted(aicc, key=aicc.get)[:3]
+    keys = [f"nested B.4 {m}" for m in laws]
+    planned_b4 = [costs.expected_seconds(k) + costs._SENSITIVITY_SECONDS[k] for k in keys[:2]]
+    planned_b4.append(costs.expected_seconds(keys[2]))
+    assert keys[2] not in costs._SENSITIVITY_SECONDS
     for s in planned_b4:
         assert any(abs(s - n) < 1e-9 for n in nested), (s, nested)
 
