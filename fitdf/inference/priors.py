@@ -61,14 +61,20 @@ def prior_description(specs, priors: dict) -> dict:
 def noise_prior_description() -> dict:
     """The two noise scales' priors (integrated out of the likelihood), as
     :func:`prior_description` gives the parameters'."""
+    return _log_uniform(NOISE_NAMES, NOISE_BOUNDS, NOISE_UNITS, integrated_out=True)
+
+
+def _log_uniform(names, log10_bounds, units, integrated_out: bool) -> dict:
+    """Log-uniform priors of ``names`` on their ``log10`` boxes, as :func:`prior_description`
+    describes a parameter's."""
     return {
         name: {
             "distribution": "log-uniform",
             "bounds": [float(10.0**lo), float(10.0**hi)],
-            "unit": NOISE_UNITS[name],
-            "integrated_out": True,
+            "unit": units[name],
+            "integrated_out": integrated_out,
         }
-        for name, (lo, hi) in zip(NOISE_NAMES, NOISE_BOUNDS)
+        for name, (lo, hi) in zip(names, log10_bounds)
     }
 
 
@@ -82,15 +88,7 @@ def noise_priors_text() -> str:
 def noise_law_prior_description(law) -> dict:
     """The priors of a fitted noise law's parameters (sampled with the law's,
     :mod:`fitdf.inference.noise_models`): log-uniform on :attr:`NoiseLaw.bounds`."""
-    return {
-        name: {
-            "distribution": "log-uniform",
-            "bounds": [float(10.0**lo), float(10.0**hi)],
-            "unit": PARAMETER_UNITS[name],
-            "integrated_out": False,
-        }
-        for name, (lo, hi) in zip(law.names, law.bounds)
-    }
+    return _log_uniform(law.names, law.bounds, PARAMETER_UNITS, integrated_out=False)
 
 
 def noise_law_priors_text(law) -> str:
