@@ -388,7 +388,8 @@ def test_committed_results_json_matches_schema_if_current(report_results):
     if not COMMITTED.exists():
         pytest.skip("no committed reports/results.json")
     committed = read_results(COMMITTED)
-    if set(committed) != set(report_results):
+    # (the small-signal study is added to a report after its run: fitdf.report.small_signal_study)
+    if set(committed) - {"small_signal_evidence"} != set(report_results):
         pytest.skip(
             "reports/results.json predates the current structure "
             f"(top-level keys {sorted(set(committed) ^ set(report_results))} differ); regenerate it"

@@ -216,39 +216,3 @@ def test_nested_fit_records_the_sampled_noise_law():
     )
     assert "noise law reading, log-uniform" in post.info["noise_priors"]
     assert post.info["prior"]["r_p"]["distribution"] == "log-uniform"
-
-
-# ------------------------------------------------------------------ the documents' numbers
-def test_the_pages_state_the_benchmarks_evidence():
-    """docs/method/noise.rst and low-field.rst state ``ln Z`` and the Bayes factors of
-    ``benchmarks/noise_evidence.json`` (and of the committed report's Preisach posterior of
-    B.2), as the benchmark computes them."""
-    import json
-    from pathlib import Path
-
-    root = Path(__file__).resolve().parents[1]
-    runs = {
-        f"{r['block']}/{r['law']}/{r['noise']}": r
-        for r in json.loads((root / "benchmarks/noise_evidence.json").read_text())["runs"]
-    }
-    # (Preisach's printed-noise posterior: the committed report's, unless the benchmark ran it)
-    report = json.loads((root / "reports/results.json").read_text())
-    preisach = (
-        runs.get("B.2/preisach/printed")
-        or (report["blocks"]["B.2"]["fits_posterior"]["preisach"]["diagnostics"])
-    )
-    noise = " ".join((root / "docs/method/noise.rst").read_text().split())
-    low = " ".join((root / "docs/method/low-field.rst").read_text().split())
-    const, reading = runs["B.2/preisach/constant"], runs["B.2/preisach/reading"]
-    rayleigh = runs["B.2/preisach_rayleigh/printed"]
-    for r in (const, reading):
-        assert f"{r['log_evidence']:.2f} ± {r['log_evidence_error']:.2f}" in noise
-        assert f"{r['n_likelihood_evaluations']}" in noise and f"{r['rms_complex']:.4f}" in noise
-    lnb = reading["log_evidence"] - const["log_evidence"]
-    err = np.hypot(reading["log_evidence_error"], const["log_evidence_error"])
-    assert f"{lnb:.1f} ± {err:.2f}" in noise and f"ahead by {lnb:.1f}" in noise
-    assert f"{rayleigh['log_evidence']:.2f} ± {rayleigh['log_evidence_error']:.2f}" in low
-    assert f"{preisach['log_evidence']:.2f} ± {preisach['log_evidence_error']:.2f}" in low
-    lnb = rayleigh["log_evidence"] - preisach["log_evidence"]
-    err = np.hypot(rayleigh["log_evidence_error"], preisach["log_evidence_error"])
-    assert f"Bayes factor of {lnb:.1f} ± {err:.2f}" in low

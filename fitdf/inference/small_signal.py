@@ -42,6 +42,7 @@ __all__ = [
     "verdict",
     "series_permeability",
     "small_signal_permeability",
+    "passive_distance",
 ]
 
 #: Samples per period of the biased-loop DF (the history is exact between samples; the
@@ -255,3 +256,19 @@ def small_signal_permeability(result, geometry=None) -> pd.DataFrame:
             "q_fitted": q_f,
         }
     )
+
+
+def passive_distance(magnitude, lead_deg, gain):
+    """Distance of a reading ``magnitude * exp(j lead)`` outside the disc
+    ``|w - g/2| <= g/2`` (0 inside), ``g`` the reading's gain.
+
+    Behind a series resistance ``R`` a core of impedance ``Z`` gives ``w = g Z/(R + Z)``, and
+    ``Re Z >= 0`` (a passive element) maps to that disc. For a hysteretic core in the exact
+    circuit the same holds of the fundamental: the power the source delivers at the
+    fundamental is at least the resistor's share, ``1 - Re(w/g) >= |1 - w/g|^2``, whatever the
+    loop. A reading outside the disc is one no passive core gives: its distance bounds how
+    close any law can come to it. Broadcasts.
+    """
+    w = np.asarray(magnitude, float) * np.exp(1j * np.radians(np.asarray(lead_deg, float)))
+    g = np.asarray(gain, float)
+    return np.maximum(np.abs(w - g / 2) - g / 2, 0.0)

@@ -35,6 +35,7 @@ from fitdf.report.limit_outline import LIMIT as _LIMIT
 from fitdf.report.limit_outline import limit_blocks as _limit_blocks
 from fitdf.report.overview import regenerate_claims
 from fitdf.report.physics_outline import PHYSICS, physics_blocks
+from fitdf.report.small_signal_outline import study_blocks
 from fitdf.report.upgrade import upgrade
 from fitdf.report.words import report_words
 
@@ -504,6 +505,7 @@ def build_document(res: dict) -> list:
         physics_blocks(res, words)
         + _cross_blocks(res)
         + _small_signal_blocks(res)
+        + study_blocks(res, words)
         + _limit_blocks(res)
         + _audit_blocks(res)
         + _thesis_blocks(res)

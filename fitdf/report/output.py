@@ -50,7 +50,11 @@ def write_outputs(results: dict, out_dir: Path) -> None:
     out_dir = Path(out_dir)
 
     def write(name: str, text: str) -> None:
-        (out_dir / name).write_text(text, encoding="utf-8")
+        # each file whole or not at all (a report folder is also written in place:
+        # fitdf.report.small_signal_study)
+        tmp = out_dir / f".{name}.tmp"
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, out_dir / name)
 
     write("results.json", json.dumps(results, indent=1, allow_nan=False, ensure_ascii=False) + "\n")
     write("README.md", render.render_markdown(results))

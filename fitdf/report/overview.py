@@ -66,12 +66,19 @@ def _and_list(items) -> str:
     return ", ".join(items[:-1]) + f" and {items[-1]}" if len(items) > 1 else "".join(items)
 
 
-@rule("report.regenerate", command="run/command", seed="seed")
-def _regenerate(command, seed):
+@rule(
+    "report.regenerate",
+    command="run/command",
+    seed="seed",
+    study="small_signal_evidence/settings",
+)
+def _regenerate(command, seed, study=None):
     values = {**REPRODUCED}
     if command:
         template = "regenerate with `{command}`"
         values["command"] = command
+        if study is not None:  # added to the report's folder after the run
+            template += " and then `python -m fitdf.report.small_signal_study REPORT`"
     else:
         template = (
             "made with settings of its own (`settings` in `results.json`), which no option of "

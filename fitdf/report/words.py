@@ -14,6 +14,7 @@ from fitdf.report.conclusion import conclusion_claims
 from fitdf.report.findings import findings
 from fitdf.report.overview import intro_claims, regenerate_claims, summary_claims
 from fitdf.report.physics_claims import physics_claims, physics_findings
+from fitdf.report.small_signal_claims import small_signal_claims, small_signal_findings
 from fitdf.report.upgrade import upgrade
 
 __all__ = ["report_words", "every_claim", "sentence"]
@@ -29,11 +30,12 @@ def report_words(results: dict) -> dict:
 
     ``claims``: ``intro``, ``regenerate`` and ``conclusion`` (one paragraph each),
     ``findings`` (the statements made of claims, one paragraph each), ``summary`` (one claim
-    per block), ``physics`` (:func:`fitdf.report.physics_claims.physics_claims`).
+    per block), ``physics`` (:func:`fitdf.report.physics_claims.physics_claims`),
+    ``small_signal`` (:func:`fitdf.report.small_signal_claims.small_signal_claims`).
     ``findings``: every statement of the Findings list, in order, as its words. A record of
     an earlier schema is read as the current one (:func:`fitdf.report.upgrade.upgrade`)."""
     results = upgrade(results)
-    statements = findings(results, physics_findings(results))
+    statements = findings(results, physics_findings(results) + small_signal_findings(results))
     return {
         "claims": {
             "intro": intro_claims(results),
@@ -42,6 +44,7 @@ def report_words(results: dict) -> dict:
             "findings": [s for s in statements if not isinstance(s, str)],
             "summary": summary_claims(results),
             "physics": physics_claims(results) if results.get("physics") else {},
+            "small_signal": small_signal_claims(results),
         },
         "findings": [sentence(s) for s in statements],
     }
