@@ -77,9 +77,9 @@ def _record():
                 },
             },
             {
-                "block": "B.3",
+                "block": "B.5",
                 "law": "preisach",
-                "lsq_rms_complex": 0.053,
+                "lsq_rms_complex": 0.033,
                 "runs": {
                     "constant": _run(101.4),
                     "reading": _run(
@@ -193,18 +193,25 @@ def test_the_low_field_law_is_set_beside_the_law_it_extends(results):
 
 
 def test_the_reading_laws_resolutions_are_compared_across_source_impedance(results):
+    """One core's tables at two source impedances (Deltamax: B.2 at 0 ohm, B.5 at 600)."""
     said = claim("small_signal.resolutions", results)
     v = said["values"]
-    assert (v["lo"], v["hi"], v["lo_ohm"], v["hi_ohm"]) == ("B.2", "B.3", 0.0, 600.0)
-    assert v["ratio_m"] == pytest.approx(0.0352 / 1.1e-3) and v["ratio_p"] == pytest.approx(
-        0.0325 / 1.3e-3
+    assert (v["core_0"], v["lo_0"], v["hi_0"], v["lo_ohm_0"], v["hi_ohm_0"]) == (
+        "Deltamax",
+        "B.2",
+        "B.5",
+        0.0,
+        600.0,
     )
-    assert "needs resolutions of 35.2 and 32.5 mV of output, 32 and 25 times" in said["text"]
-    one = copy.deepcopy(results)
-    del one["small_signal_evidence"]["noise"][1]
+    assert v["ratio_m_0"] == pytest.approx(0.0352 / 1.1e-3)
+    assert v["ratio_p_0"] == pytest.approx(0.0325 / 1.3e-3)
     assert (
-        claim("small_signal.resolutions", one) is None
-    )  # one source impedance: nothing to compare
+        "Deltamax at 600 ohm (B.5) needs resolutions of 35.2 and 32.5 mV of output, 32 and 25 "
+        "times its 0 ohm table B.2's (1.1 and 1.3 mV)" in said["text"]
+    )
+    other = copy.deepcopy(results)  # two cores, one impedance each: nothing to compare
+    other["small_signal_evidence"]["noise"][1]["block"] = "B.3"
+    assert claim("small_signal.resolutions", other) is None
 
 
 def test_the_worst_rows_are_pooled_and_the_farthest_outside_the_disc_named(results):

@@ -83,19 +83,20 @@ class StudySettings:
     ----------
     noise_blocks : tuple of str
         Blocks whose best least-squares law is sampled under each of ``noise_laws``: by
-        default the Deltamax and Permalloy tables where the residuals grow as the input falls
-        (Table B.2 at 0 ohm, B.3 at 600 ohm; B.1 shows no growth, B.4 and B.5 cost three
-        times as much per evaluation).
+        default the tables where the residuals grow as the input falls, Deltamax at both
+        source impedances (Tables B.2 and B.5: one core, one analyser, two dividers) and
+        Permalloy at 600 ohm (B.3). B.1 shows no growth, and Supermalloy's one table (B.4)
+        has no partner at another source impedance.
     noise_laws : tuple of str
         Fitted noise laws (:data:`NOISE_LAWS`).
     low_field_blocks : tuple of str
         Blocks where :data:`LOW_FIELD_LAW` is fitted, cross-validated and sampled beside the
-        report's :data:`BASE_LAW` (its posterior must be in the report).
+        report's :data:`BASE_LAW` (its posterior must be in the report): every single table.
     """
 
-    noise_blocks: tuple = ("B.2", "B.3")
+    noise_blocks: tuple = ("B.2", "B.5", "B.3")
     noise_laws: tuple = NOISE_LAWS
-    low_field_blocks: tuple = ("B.2", "B.3", "B.4", "B.5")
+    low_field_blocks: tuple = ("B.1", "B.2", "B.3", "B.4", "B.5")
 
 
 def posterior_summary(result) -> dict:
