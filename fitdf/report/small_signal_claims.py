@@ -5,9 +5,12 @@ made again by the tests from the fields of ``small_signal_evidence`` it reads
 ``small_signal.noise`` (one per block of the noise study): the noise laws in the order of
 their evidence, the Bayes factors over constant scales, the RMS of each posterior's point
 estimate, the reading law's resolutions, and the law's parameters the noise law moves.
-``small_signal.low_field`` (one per block of the low-field study): the low-field law against
-the law it extends by AICc, cross-validation and the evidence. ``small_signal.summary``: both
-in one sentence, for the Findings.
+``small_signal.resolutions``: the reading law's resolutions on one core's tables at two
+source impedances. ``small_signal.low_field`` (one per block of the low-field study): the
+low-field law against the law it extends by AICc, cross-validation and the evidence.
+``small_signal.worst_rows``: the rows every law misses most, with the low-field law and
+against the readings a passive core gives. ``small_signal.summary``: the noise laws' and the
+low-field law's verdicts in one sentence, for the Findings.
 """
 
 from __future__ import annotations
