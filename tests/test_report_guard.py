@@ -127,6 +127,23 @@ def test_a_quick_run_into_a_full_report_refuses_before_any_fit(tmp_path, no_comp
             build.generate_report(out, progress=False, settings=settings, replace=asked)
 
 
+def test_a_report_holding_a_small_signal_study_is_not_replaced_by_surprise(
+    tmp_path, no_computation
+):
+    """No run of fitdf report makes the study: even a --full run would lose it."""
+    out = _report_folder(tmp_path, FULL)
+    results = json.loads((out / "results.json").read_text())
+    results["small_signal_evidence"] = {"settings": {}, "noise": [], "low_field": []}
+    (out / "results.json").write_text(json.dumps(results))
+    with pytest.raises(LesserReport) as refused:
+        build.generate_report(out, progress=False, settings=FULL)
+    said = str(refused.value)
+    assert "`fitdf report --full` would replace it without its small-signal study" in said
+    assert "\n" not in said and (out / "README.md").read_text() == "the committed report\n"
+    with pytest.raises(Computed):  # asked to
+        build.generate_report(out, progress=False, settings=FULL, replace=True)
+
+
 def test_a_report_of_the_earlier_schema_is_guarded_too(tmp_path, no_computation):
     out = _report_folder(tmp_path, FULL, v1=True)
     with pytest.raises(LesserReport, match="without its posteriors"):

@@ -137,7 +137,9 @@ def _made_by(record: dict) -> str:
 
 def check_replace(out_dir, settings: dict, command: str | None) -> None:
     """Refuse to replace the report in ``out_dir`` by a run of ``settings`` (their
-    ``results.json`` record) that would lose something it holds.
+    ``results.json`` record) that would lose something it holds: what its settings computed
+    and these do not (:func:`~fitdf.report.settings.lost_by`), or a small-signal study added
+    to it (:mod:`fitdf.report.small_signal_study`), which no run of ``fitdf report`` makes.
 
     Raises
     ------
@@ -149,6 +151,8 @@ def check_replace(out_dir, settings: dict, command: str | None) -> None:
     if old is None:
         return
     lost = lost_by(old["settings"], settings)
+    if old.get("small_signal_evidence"):  # added after its run: no run of fitdf report makes it
+        lost.append("small-signal study (python -m fitdf.report.small_signal_study)")
     if not lost:
         return
     this = f"`{command}`" if command else "these settings"
