@@ -63,6 +63,7 @@ __all__ = [
     "METHOD_CHOICES",
     "POSTERIOR_METHODS",
     "bayes_factor_scale",
+    "log_bayes_factor",
 ]
 
 #: Columns a ranking can be ordered by, and whether larger is better.
@@ -96,6 +97,16 @@ KASS_RAFTERY = (
     (6.0, "positive"),
     (10.0, "strong"),
 )
+
+
+def log_bayes_factor(a, b) -> tuple[float, float]:
+    """``ln B`` of ``a`` over ``b``, ``ln Z(a) - ln Z(b)``, and its error, the two evidences'
+    errors added in quadrature (``a``, ``b``: records with ``log_evidence`` and
+    ``log_evidence_error``)."""
+    return (
+        float(a["log_evidence"] - b["log_evidence"]),
+        float(np.hypot(a["log_evidence_error"], b["log_evidence_error"])),
+    )
 
 
 def bayes_factor_scale(log_bayes_factor: float) -> str:
@@ -349,11 +360,9 @@ def _bayes_factors(table: pd.DataFrame) -> pd.DataFrame:
         return table
     ordered = table[has].sort_values("log_evidence", ascending=False)
     for (i, a), (_, b) in zip(ordered.iterrows(), list(ordered.iterrows())[1:]):
-        ln_b = a["log_evidence"] - b["log_evidence"]
+        ln_b, error = log_bayes_factor(a, b)
         table.loc[i, "log_bayes_factor_next"] = ln_b
-        table.loc[i, "log_bayes_factor_next_error"] = float(
-            np.hypot(a["log_evidence_error"], b["log_evidence_error"])
-        )
+        table.loc[i, "log_bayes_factor_next_error"] = error
         table.loc[i, "bayes_factor_verdict"] = bayes_factor_scale(ln_b)
     return table
 

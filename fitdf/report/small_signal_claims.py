@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fitdf.inference.ranking import bayes_factor_scale
+from fitdf.inference.ranking import bayes_factor_scale, log_bayes_factor
 from fitdf.report.claims import paragraph, rule, say
 
 __all__ = ["MOVED_FACTOR", "small_signal_claims", "small_signal_findings"]
@@ -27,14 +27,6 @@ __all__ = ["MOVED_FACTOR", "small_signal_claims", "small_signal_findings"]
 #: (``lambda_s``, ``gain`` and ``r_series`` within a few per cent), within those of the
 #: undetermined ones.
 MOVED_FACTOR = 1.5
-
-
-def _lnb(a: dict, b: dict) -> tuple[float, float]:
-    """``ln Z(a) - ln Z(b)`` and its error (the two runs' errors in quadrature)."""
-    return (
-        a["log_evidence"] - b["log_evidence"],
-        float(np.hypot(a["log_evidence_error"], b["log_evidence_error"])),
-    )
 
 
 def _moved(base: dict, other: dict) -> list[str]:
@@ -69,7 +61,7 @@ def _noise(record, index):
     if "constant" in runs:
         parts = []
         for i, n in enumerate(x for x in order if x != "constant"):
-            lnb, err = _lnb(runs[n], runs["constant"])
+            lnb, err = log_bayes_factor(runs[n], runs["constant"])
             values.update({f"n_{i}": n, f"lnb_{i}": lnb, f"err_{i}": err})
             parts.append(f"{{n_{i}}} by ln B = {{lnb_{i}:.1f}} ± {{err_{i}:.1f}}")
         template += " (over constant scales: " + "; ".join(parts) + ")"
@@ -128,7 +120,7 @@ def _low_field(record, index):
         return say(
             template + "; its posterior did not converge, so no evidence is stated.", **values
         )
-    lnb, err = _lnb(post, base)
+    lnb, err = log_bayes_factor(post, base)
     winner, loser = (record["law"], record["base"]) if lnb >= 0 else (record["base"], record["law"])
     values.update(
         lnb=abs(lnb),
@@ -275,7 +267,9 @@ def _summary(noise, low):
             )
     if low:
         done = [r for r in low if r["posterior"]["converged"]]
-        better = [r["block"] for r in done if _lnb(r["posterior"], r["base_posterior"])[0] > 0]
+        better = [
+            r["block"] for r in done if log_bayes_factor(r["posterior"], r["base_posterior"])[0] > 0
+        ]
         values.update(law=low[0]["law"], base=low[0]["base"], n_better=len(better), n=len(done))
         part = "{law:law} has more evidence than {base:law} on {n_better} of {n} tables"
         if better:

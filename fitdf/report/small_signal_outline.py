@@ -4,6 +4,7 @@ blocks (:mod:`fitdf.report.document`): what it asks, a table per part, and the c
 
 from __future__ import annotations
 
+from fitdf.inference.ranking import log_bayes_factor
 from fitdf.report.claims import text
 from fitdf.report.document import TABLE, H, P, fmt
 
@@ -35,7 +36,7 @@ def _noise_table(records: list) -> list:
         const = runs.get("constant")
         for name, run in runs.items():
             lnb = (
-                f"{run['log_evidence'] - const['log_evidence']:.1f}"
+                f"{log_bayes_factor(run, const)[0]:.1f}"
                 if const is not None and name != "constant"
                 else ""
             )
@@ -84,7 +85,7 @@ def _low_field_table(records: list) -> list:
                 f"{rec['lsq']['rms_complex']:.4f} / {rec['base_lsq']['rms_complex']:.4f}",
                 f"{rec['lsq']['cv_rms_complex']:.4f} / {rec['base_lsq']['cv_rms_complex']:.4f}",
                 f"{_lnz(post)} / {_lnz(base)}",
-                f"{post['log_evidence'] - base['log_evidence']:.1f}",
+                f"{log_bayes_factor(post, base)[0]:.1f}",
                 f"{post['rms_complex']:.4f} / {base['rms_complex']:.4f}",
             ]
         )
